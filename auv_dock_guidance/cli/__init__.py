@@ -1,0 +1,1 @@
+"""The auv-dock command-line tool."""

@@ -1,0 +1,1 @@
+"""Camera model, calibration and the marker pose equations (no ROS import)."""

@@ -1,0 +1,1 @@
+"""Synthetic scenes and (later) the closed-loop docking simulator."""

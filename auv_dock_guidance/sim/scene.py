@@ -1,0 +1,271 @@
+"""Synthetic underwater frames of the LED-ring marker with ground truth.
+
+The ring is drawn where the calibrated camera (lens distortion included) sees it; then
+the water acts on the light: attenuation with path length, a forward-scatter halo that
+grows with turbidity and distance, backscatter veiling light, an ambient gradient from
+the surface, a mirrored copy of the ring in the surface (rippled, similar brightness),
+lamps and glints, motion blur and sensor noise. Everything is drawn from a seeded
+generator, so a (spec, seed) pair is one exact image.
+
+Geometry is given in the camera optical frame (x right, y down, z forward, metres).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from auv_dock_guidance.geometry.camera import CameraModel
+
+_SHIFT = 4  # fixed-point bits for sub-pixel drawing
+_SCALE = 1 << _SHIFT
+
+
+@dataclass(frozen=True)
+class Lamp:
+    """A distractor light: a small bright disc (lamp, torch) or a glint."""
+
+    u: float
+    v: float
+    radius_px: float
+    gain: float
+
+
+@dataclass(frozen=True)
+class SceneSpec:
+    """Everything that determines one rendered frame."""
+
+    marker_center_m: tuple[float, float, float] | None = (0.0, 0.0, 8.0)
+    marker_normal: tuple[float, float, float] = (0.0, 0.0, -1.0)  # towards the camera
+    marker_radius_m: float = 0.35
+    strip_width_m: float = 0.025
+    led_count: int = 0  # 0: a continuous strip; otherwise discrete LEDs
+    led_bgr: tuple[float, float, float] = (1.0, 0.9, 0.25)  # blue-green
+    brightness: float = 1.6  # radiance of the strip before the water, in image units (1 = 255)
+    attenuation_per_m: float = 0.12  # beam attenuation c of the water
+    halo_fraction_per_m: float = 0.05  # share of light scattered into the halo per metre
+    halo_sigma_rad: float = 0.012  # angular spread of the forward-scatter halo
+    backscatter: float = 0.10  # veiling light level (image units, 1 = 255)
+    ambient_top: float = 0.18  # ambient light at the top of the frame
+    ambient_bottom: float = 0.06
+    water_bgr: tuple[float, float, float] = (0.85, 0.65, 0.25)
+    surface_height_m: float | None = None  # water surface above the camera: reflection on
+    surface_up: tuple[float, float, float] = (0.0, -1.0, 0.0)
+    reflection_gain: float = 0.8
+    ripple_m: float = 0.02  # surface wave amplitude distorting the reflection
+    lamps: tuple[Lamp, ...] = ()
+    motion_blur_px: float = 0.0
+    motion_blur_angle_rad: float = 0.0
+    read_noise: float = 2.0  # grey levels, standard deviation
+    shot_noise: float = 0.6  # grey levels per sqrt(grey level)
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class GroundTruth:
+    """Where the marker really is; None fields when it is not in view."""
+
+    marker_visible: bool
+    center_px: tuple[float, float] | None  # projection of the ring centre (distorted pixels)
+    radius_px: float | None  # f * R / z
+    position_m: tuple[float, float, float] | None
+    reflection_center_px: tuple[float, float] | None
+
+
+def ring_points(center: np.ndarray, normal: np.ndarray, radius: float, count: int) -> np.ndarray:
+    """Points on a 3-D circle, (count, 3)."""
+    normal = normal / np.linalg.norm(normal)
+    helper = np.array([0.0, 1.0, 0.0]) if abs(normal[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    e1 = np.cross(normal, helper)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(normal, e1)
+    t = np.linspace(0.0, 2.0 * math.pi, count, endpoint=False)
+    return center + radius * (np.outer(np.cos(t), e1) + np.outer(np.sin(t), e2))
+
+
+def mirror_in_surface(points: np.ndarray, up: np.ndarray, height: float) -> np.ndarray:
+    """Reflect points in the plane up . X = height (the water surface seen from below)."""
+    up = up / np.linalg.norm(up)
+    return points + 2.0 * (height - points @ up)[:, None] * up
+
+
+def ground_truth(camera: CameraModel, spec: SceneSpec) -> GroundTruth:
+    if spec.marker_center_m is None:
+        return GroundTruth(False, None, None, None, None)
+    center = np.array(spec.marker_center_m, dtype=float)
+    pix, valid = camera.project(center[None])
+    u, v = (float(x) for x in pix[0])
+    inside = bool(valid[0]) and 0 <= u < camera.width and 0 <= v < camera.height
+    reflection = None
+    if spec.surface_height_m is not None:
+        mirrored = mirror_in_surface(center[None], np.array(spec.surface_up), spec.surface_height_m)
+        rpix, rvalid = camera.project(mirrored)
+        if rvalid[0]:
+            reflection = (float(rpix[0, 0]), float(rpix[0, 1]))
+    return GroundTruth(
+        marker_visible=inside,
+        center_px=(u, v) if inside else None,
+        radius_px=camera.focal_px * spec.marker_radius_m / center[2] if inside else None,
+        position_m=(float(center[0]), float(center[1]), float(center[2])),
+        reflection_center_px=reflection,
+    )
+
+
+def render(camera: CameraModel, spec: SceneSpec) -> tuple[np.ndarray, GroundTruth]:
+    """One BGR uint8 frame of the scene and its ground truth."""
+    rng = np.random.default_rng(spec.seed)
+    h, w = camera.height, camera.width
+    light = np.zeros((h, w), np.float32)
+    if spec.marker_center_m is not None:
+        center = np.array(spec.marker_center_m, dtype=float)
+        normal = np.array(spec.marker_normal, dtype=float)
+        _draw_ring(camera, spec, light, center, normal, gain=1.0, rng=rng, ripple=0.0)
+        if spec.surface_height_m is not None:
+            up = np.array(spec.surface_up, dtype=float)
+            m_center = mirror_in_surface(center[None], up, spec.surface_height_m)[0]
+            m_normal = normal - 2.0 * (normal @ up) * up / (up @ up)
+            _draw_ring(
+                camera, spec, light, m_center, m_normal, spec.reflection_gain, rng, spec.ripple_m
+            )
+    for lamp in spec.lamps:
+        _draw_disc(light, lamp.u, lamp.v, lamp.radius_px, lamp.gain)
+    light = _apply_optics(camera, spec, light)
+    image = _compose(camera, spec, light, rng)
+    return image, ground_truth(camera, spec)
+
+
+def _draw_ring(
+    camera: CameraModel,
+    spec: SceneSpec,
+    light: np.ndarray,
+    center: np.ndarray,
+    normal: np.ndarray,
+    gain: float,
+    rng: np.random.Generator,
+    ripple: float,
+) -> None:
+    distance = float(np.linalg.norm(center))
+    if center[2] <= 0.05:
+        return
+    radius_px_est = camera.focal_px * spec.marker_radius_m / center[2]
+    count = int(np.clip(radius_px_est * 2.0 * math.pi / 2.0, 64, 4096))
+    count = spec.led_count if spec.led_count > 0 else count
+    pts = ring_points(center, normal, spec.marker_radius_m, count)
+    if ripple > 0:
+        phase = rng.uniform(0, 2 * math.pi, 3)
+        t = np.linspace(0, 2 * math.pi, count, endpoint=False)
+        wobble = ripple * (np.sin(3 * t + phase[0]) + 0.6 * np.sin(7 * t + phase[1]))
+        pts = pts + wobble[:, None] * rng.normal(size=3) / 1.7
+    pix, valid = camera.project(pts)
+    radiance = spec.brightness * gain * math.exp(-spec.attenuation_per_m * distance)
+    width_px = camera.focal_px * spec.strip_width_m / center[2]
+    # A strip narrower than a pixel spreads its light over one pixel: dimmer, not thinner.
+    value = radiance * min(1.0, width_px)
+    if spec.led_count > 0:
+        for (u, v), ok in zip(pix, valid):
+            if ok:
+                _draw_disc(light, u, v, max(0.7, width_px * 0.6), value)
+        return
+    layer = np.zeros(light.shape, np.uint8)
+    if valid.all() and width_px >= 1.0 and ripple == 0.0:
+        # The strip is the annulus between two concentric 3-D circles, projected exactly:
+        # its near side comes out wider than its far side, as through a real lens.
+        half = 0.5 * spec.strip_width_m
+        outer, _ = camera.project(ring_points(center, normal, spec.marker_radius_m + half, count))
+        inner, _ = camera.project(ring_points(center, normal, spec.marker_radius_m - half, count))
+        cv2.fillPoly(layer, [np.round(outer * _SCALE).astype(np.int32)], 255, cv2.LINE_AA, _SHIFT)
+        cv2.fillPoly(layer, [np.round(inner * _SCALE).astype(np.int32)], 0, cv2.LINE_AA, _SHIFT)
+        light += layer.astype(np.float32) * (radiance / 255.0)
+        return
+    # A sub-pixel strip, a rippled reflection, or a ring partly beyond the lens model's fold
+    # or behind the camera: a polyline through the valid runs (never a chord across the image).
+    thickness = max(1, int(round(width_px)))
+    for run in _valid_runs(valid):
+        if np.any(np.abs(pix[run]) > 1e6):
+            continue
+        poly = np.round(pix[run] * _SCALE).astype(np.int32)
+        cv2.polylines(layer, [poly], len(run) == len(pix), 255, thickness, cv2.LINE_AA, _SHIFT)
+    light += layer.astype(np.float32) * (value / 255.0)
+
+
+def _valid_runs(valid: np.ndarray) -> list[np.ndarray]:
+    idx = np.flatnonzero(valid)
+    if idx.size == 0:
+        return []
+    if idx.size == valid.size:
+        return [idx]
+    breaks = np.flatnonzero(np.diff(idx) > 1)
+    runs = np.split(idx, breaks + 1)
+    if valid[0] and valid[-1] and len(runs) > 1:  # join the run that wraps around
+        runs[0] = np.concatenate([runs[-1], runs[0]])
+        runs = runs[:-1]
+    return [r for r in runs if r.size > 1]
+
+
+def _draw_disc(layer: np.ndarray, u: float, v: float, radius: float, value: float) -> None:
+    h, w = layer.shape
+    if not (-radius <= u < w + radius and -radius <= v < h + radius):
+        return
+    center = (int(round(u * _SCALE)), int(round(v * _SCALE)))
+    r = int(round(max(radius, 0.5) * _SCALE))
+    x0, y0 = max(0, int(u - radius - 2)), max(0, int(v - radius - 2))
+    x1, y1 = min(w, int(u + radius + 3)), min(h, int(v + radius + 3))
+    if x1 <= x0 or y1 <= y0:
+        return
+    sub = np.zeros((y1 - y0, x1 - x0), np.uint8)
+    cv2.circle(sub, (center[0] - x0 * _SCALE, center[1] - y0 * _SCALE), r, 255, -1, cv2.LINE_AA, _SHIFT)
+    layer[y0:y1, x0:x1] += sub.astype(np.float32) * (value / 255.0)
+
+
+def _apply_optics(camera: CameraModel, spec: SceneSpec, light: np.ndarray) -> np.ndarray:
+    """Lens blur, forward-scatter halo and motion blur of the light layer (region of interest only)."""
+    ys, xs = np.nonzero(light > 1e-4)
+    if ys.size == 0:
+        return light
+    distance = float(np.linalg.norm(spec.marker_center_m)) if spec.marker_center_m else 10.0
+    halo_sigma = max(2.0, camera.focal_px * spec.halo_sigma_rad * (0.5 + distance / 10.0))
+    margin = int(3 * halo_sigma + spec.motion_blur_px + 8)
+    y0, y1 = max(0, ys.min() - margin), min(light.shape[0], ys.max() + margin + 1)
+    x0, x1 = max(0, xs.min() - margin), min(light.shape[1], xs.max() + margin + 1)
+    roi = light[y0:y1, x0:x1]
+    core = cv2.GaussianBlur(roi, (0, 0), 0.6 + 0.03 * distance)
+    halo_share = 1.0 - math.exp(-spec.halo_fraction_per_m * distance)
+    # The halo is smooth: blur a quarter-size copy and scale it back up.
+    small = cv2.resize(core, None, fx=0.25, fy=0.25, interpolation=cv2.INTER_AREA)
+    small = cv2.GaussianBlur(small, (0, 0), halo_sigma / 4.0)
+    halo = cv2.resize(small, (roi.shape[1], roi.shape[0]), interpolation=cv2.INTER_LINEAR)
+    out = core * (1.0 - halo_share) + halo * halo_share
+    if spec.motion_blur_px >= 1.0:
+        out = _motion_blur(out, spec.motion_blur_px, spec.motion_blur_angle_rad)
+    result = np.zeros_like(light)
+    result[y0:y1, x0:x1] = out
+    return result
+
+
+def _motion_blur(image: np.ndarray, length: float, angle: float) -> np.ndarray:
+    size = int(math.ceil(length)) | 1
+    kernel = np.zeros((size, size), np.float32)
+    c = size // 2
+    dx, dy = math.cos(angle) * (length - 1) / 2, math.sin(angle) * (length - 1) / 2
+    cv2.line(kernel, (int(round((c - dx) * _SCALE)), int(round((c - dy) * _SCALE))),
+             (int(round((c + dx) * _SCALE)), int(round((c + dy) * _SCALE))), 1.0, 1, cv2.LINE_AA, _SHIFT)
+    kernel /= max(kernel.sum(), 1e-6)
+    return cv2.filter2D(image, -1, kernel)
+
+
+def _compose(camera: CameraModel, spec: SceneSpec, light: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    h, w = camera.height, camera.width
+    rows = np.linspace(spec.ambient_top, spec.ambient_bottom, h, dtype=np.float32)[:, None]
+    water = np.array(spec.water_bgr, np.float32)
+    led = np.array(spec.led_bgr, np.float32)
+    veil = np.float32(spec.backscatter)
+    image = np.empty((h, w, 3), np.float32)
+    for ch in range(3):
+        np.multiply(light, 255.0 * led[ch], out=image[..., ch])
+        image[..., ch] += (rows + veil) * (255.0 * water[ch])
+    noise_sigma = np.sqrt(spec.read_noise**2 + spec.shot_noise**2 * np.maximum(image, 0.0))
+    image += rng.standard_normal(image.shape, dtype=np.float32) * noise_sigma
+    return np.clip(image, 0, 255).astype(np.uint8)

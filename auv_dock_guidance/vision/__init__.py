@@ -1,0 +1,1 @@
+"""Marker detection: improved Canny edges, adaptive threshold, interference rejection."""

@@ -1,0 +1,515 @@
+"""The LED-ring detector: one camera frame in, one Detection out.
+
+Two stages keep the 1080p frame cheap without losing precision:
+
+1. Search, on a quarter-size copy: subtract a local background (morphological opening,
+   wider than the LED strip, so surface light gradients and backscatter do not count),
+   keep what stands above the noise floor, and take the largest bright regions.
+2. Refinement, at full or near-full resolution in a window around each region: the
+   paper's pipeline. Bilateral filter, improved (Scharr) Canny edges, the adaptive
+   threshold steered by the region's apparent size, closed contours, the gates and the
+   paper's choice rule (largest, lowest on ties), and the minimum enclosing circle.
+
+Beyond the paper, the chosen contour is also fitted where a circle is a circle: its
+points are undistorted to the normalized plane, an ellipse is fitted to the outer
+outline and, for a resolved ring, to its inner outline too. The mean of the two is the
+LED centre line, unbiased by halo or threshold, and the ellipse centre is mapped back
+to image pixels. Points on the image border or beyond the lens model's fold are left
+out of the fit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from auv_dock_guidance.errors import ConfigError
+from auv_dock_guidance.geometry.camera import CameraModel
+from auv_dock_guidance.geometry.pose import (
+    Ellipse,
+    MarkerPose,
+    pose_from_circle,
+    pose_from_point,
+    ring_center_solution,
+)
+from auv_dock_guidance.vision.edges import BilateralParams, bilateral, improved_canny
+from auv_dock_guidance.vision.image_input import as_bgr_or_gray8, intensity
+from auv_dock_guidance.vision.selection import (
+    CandidateShape,
+    SelectionConfig,
+    choose,
+    is_ring,
+    rejection_reason,
+)
+from auv_dock_guidance.vision.threshold import AdaptiveThreshold, ThresholdConfig
+
+
+@dataclass(frozen=True)
+class DetectorConfig:
+    """Detector settings; every field is documented in README.md (Detector parameters)."""
+
+    marker_radius_m: float = 0.35  # radius of the LED ring's centre line
+    max_range_m: float = 40.0  # smaller apparent rings are glints or distant lamps
+    search_scale: float = 0.25  # size of the search copy
+    search_background_px: int = 31  # opening width on the search copy (wider than the strip)
+    max_candidates: int = 6  # regions refined per frame and grouping width
+    search_floor_grey: float = 3.0  # search keeps what stands this far above the local background...
+    search_floor_noise_sigmas: float = 4.0  # ...and this many noise deviations (on the small copy)
+    search_gaps_px: tuple[int, ...] = (0, 32, 96)  # LED gaps bridged when grouping (full-res px)
+    refine_radius_px: float = 90.0  # refine at a resolution where the ring is about this large
+    bilateral: BilateralParams = BilateralParams(diameter=5, sigma_color=30.0, sigma_space=3.0)
+    canny_low: float = 0.04  # hysteresis thresholds as shares of the region's contrast, per px
+    canny_high: float = 0.10
+    threshold: ThresholdConfig = field(default_factory=ThresholdConfig)
+    selection: SelectionConfig = field(default_factory=SelectionConfig)
+
+    def __post_init__(self) -> None:
+        if not (self.marker_radius_m > 0 and math.isfinite(self.marker_radius_m)):
+            raise ConfigError(f"marker_radius_m {self.marker_radius_m} must be a positive number")
+        if not self.max_range_m > 0:
+            raise ConfigError(f"max_range_m {self.max_range_m} must be positive")
+        if not 0.05 <= self.search_scale <= 1.0:
+            raise ConfigError(f"search_scale {self.search_scale} must be in [0.05, 1]")
+        if self.search_background_px < 3 or self.max_candidates < 1 or self.refine_radius_px < 16:
+            raise ConfigError("search_background_px >= 3, max_candidates >= 1, refine_radius_px >= 16")
+        if not 0 < self.canny_low <= self.canny_high:
+            raise ConfigError(f"need 0 < canny_low <= canny_high, got {self.canny_low}, {self.canny_high}")
+
+
+@dataclass(frozen=True)
+class Detection:
+    """The marker in one frame. Pixel values are in the recorded (distorted) image."""
+
+    found: bool
+    u: float = math.nan  # image of the ring centre
+    v: float = math.nan
+    radius_px: float = math.nan  # ring radius on the undistorted image, in pixels
+    threshold: float = math.nan  # grey level that segmented the chosen region
+    reason: str = ""  # why nothing was found
+    is_ring: bool = False  # the dark centre was resolved
+    ellipse: Ellipse | None = None  # the fit on the normalized plane
+    mec_u: float = math.nan  # the paper's minimum enclosing circle (distorted pixels)
+    mec_v: float = math.nan
+    mec_radius_px: float = math.nan
+    candidates: int = 0  # regions that passed the gates
+    pose: MarkerPose | None = None  # range, offsets and bearing; None without a valid fit
+    ring_normal: tuple[float, float, float] | None = None  # dock axis (optical frame), tilt-aware fit
+
+
+@dataclass
+class _Region:
+    shape: CandidateShape
+    threshold: float
+    outer: np.ndarray  # (N, 2) full-resolution distorted pixels; all LED outlines when dotted
+    hole: np.ndarray | None
+    dotted: bool = False  # separate LEDs on a common ellipse
+    led_centers: np.ndarray | None = None  # (N, 2) full-resolution pixels, when dotted
+
+
+class Detector:
+    """Stateful across the frames of one sequence (the adaptive threshold); call reset() between."""
+
+    def __init__(self, camera: CameraModel | None = None, config: DetectorConfig = DetectorConfig()) -> None:
+        self.camera = camera
+        self.config = config
+        self.threshold = AdaptiveThreshold(config.threshold)
+
+    def reset(self) -> None:
+        self.threshold.reset()
+
+    # ------------------------------------------------------------------ main entry
+    def detect(self, image: np.ndarray) -> Detection:
+        image = as_bgr_or_gray8(image)
+        if self.camera is not None and image.shape[:2] != (self.camera.height, self.camera.width):
+            raise ConfigError(
+                f"image is {image.shape[1]}x{image.shape[0]} but the camera model is "
+                f"{self.camera.width}x{self.camera.height}"
+            )
+        boxes = self._search(image)
+        regions: list[_Region] = []
+        rejected: list[str] = []
+        for box, radius_estimate in boxes:
+            for region in self._refine(image, box, radius_estimate, rejected):
+                if not any(_same_region(region, other) for other in regions):
+                    regions.append(region)
+        best = choose([r.shape for r in regions], self.config.selection)
+        if best is None:
+            self.threshold.update(None)
+            reason = "no bright region" if not boxes else "rejected: " + "; ".join(sorted(set(rejected))[:3])
+            return Detection(found=False, reason=reason)
+        detection = self._fit(regions[best], len(regions))
+        self.threshold.update(detection.radius_px if detection.found else None)
+        return detection
+
+    # ------------------------------------------------------------------ stage 1
+    def _search(self, image: np.ndarray) -> list[tuple[tuple[int, int, int, int], float]]:
+        """Bright regions on a small copy: (full-resolution box, radius estimate) each.
+
+        Regions are grouped at several gap widths, so the separate LEDs of a ring come out
+        as one region at the width that bridges their spacing.
+        """
+        c = self.config
+        s = c.search_scale
+        small = image if s == 1.0 else cv2.resize(image, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
+        gray = intensity(small)
+        k = c.search_background_px | 1
+        kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (k, k))
+        background = cv2.blur(cv2.morphologyEx(gray, cv2.MORPH_OPEN, kernel), (k, k))
+        tophat = cv2.subtract(gray, background)
+        sample = tophat[::2, ::2]
+        typical = float(np.median(sample))
+        noise = 1.4826 * float(np.median(np.abs(sample.astype(np.float32) - typical)))
+        # Search wide: a low floor finds faint, far rings; the refinement's floor decides.
+        floor = typical + max(c.search_floor_grey, c.search_floor_noise_sigmas * noise)
+        _, mask = cv2.threshold(tophat, floor, 255, cv2.THRESH_BINARY)
+        h, w = image.shape[:2]
+        min_area = max(2.0, (c.selection.min_radius_px * s) ** 2)
+        boxes: list[tuple[tuple[int, int, int, int], float]] = []
+        for gap_px in c.search_gaps_px:
+            kernel_size = int(round(gap_px * s)) | 1
+            grouped = mask if kernel_size <= 1 else cv2.dilate(
+                mask, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (kernel_size, kernel_size))
+            )
+            count, _, stats, _ = cv2.connectedComponentsWithStats(grouped, connectivity=8)
+            comps = [i for i in range(1, count) if stats[i, cv2.CC_STAT_AREA] >= min_area]
+            comps.sort(key=lambda i: stats[i, cv2.CC_STAT_AREA], reverse=True)
+            for i in comps[: c.max_candidates]:
+                x, y, bw, bh = (int(v) for v in stats[i, :4])
+                x0, y0 = (x - 1) / s, (y - 1) / s
+                x1, y1 = (x + bw + 1) / s, (y + bh + 1) / s
+                radius = max(1.0, 0.5 * max(x1 - x0, y1 - y0) - 0.5 * (kernel_size - 1) / s)
+                margin = 0.25 * radius + 12 + 0.5 * kernel_size / s
+                box = (
+                    max(0, int(x0 - margin)),
+                    max(0, int(y0 - margin)),
+                    min(w, int(math.ceil(x1 + margin))),
+                    min(h, int(math.ceil(y1 + margin))),
+                )
+                if not any(_overlap(box, other) > 0.7 for other, _ in boxes):
+                    boxes.append((box, radius))
+        return boxes
+
+    # ------------------------------------------------------------------ stage 2
+    def _refine(
+        self, image: np.ndarray, box: tuple[int, int, int, int], radius_estimate: float, rejected: list[str]
+    ) -> list[_Region]:
+        c = self.config
+        x0, y0, x1, y1 = box
+        scale = min(1.0, c.refine_radius_px / max(radius_estimate, 1.0))
+        roi = image[y0:y1, x0:x1]
+        if scale < 1.0:
+            roi = cv2.resize(roi, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
+        gray = intensity(roi)
+        if min(gray.shape) < 4:
+            return []
+        smooth = bilateral(gray, c.bilateral)
+        border = np.concatenate([smooth[0], smooth[-1], smooth[:, 0], smooth[:, -1]])
+        background = float(np.median(border))
+        noise = max(0.5, 1.4826 * float(np.median(np.abs(border - background))))
+        _, peak, _, _ = cv2.minMaxLoc(cv2.GaussianBlur(smooth, (3, 3), 0))
+        fraction = self.threshold.fraction_for(radius_estimate)
+        level = self.threshold.level(background, peak, noise, fraction)
+        if peak <= level:
+            rejected.append("too faint")
+            return []
+        _, mask = cv2.threshold(smooth, level, 255, cv2.THRESH_BINARY)
+        contrast = peak - background
+        edges = improved_canny(gray, c.canny_low * contrast, c.canny_high * contrast, smoothed=smooth)
+        near_edge = cv2.dilate(edges, np.ones((5, 5), np.uint8))
+        # Close small gaps first; a faint ring that noise broke into pieces gets a wider
+        # closing, scaled to its size, only when the narrow one found nothing.
+        wide = int(0.1 * radius_estimate * scale) | 1
+        regions: list[_Region] = []
+        for close in (3, wide) if wide > 3 else (3,):
+            closed = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (close, close)))
+            regions = self._regions(closed, near_edge, scale, x0, y0, level, rejected)
+            if regions:
+                break
+        return regions
+
+    def _regions(
+        self, mask: np.ndarray, near_edge: np.ndarray, scale: float, x0: int, y0: int, level: float,
+        rejected: list[str],
+    ) -> list[_Region]:
+        """Closed regions of one window's mask that pass the gates, in full-resolution units."""
+        contours, hierarchy = cv2.findContours(mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+        if hierarchy is None:
+            return []
+        min_radius_full = self._min_radius_px()
+        regions: list[_Region] = []
+        dots = []
+        for idx, contour in enumerate(contours):
+            if hierarchy[0][idx][3] != -1:
+                continue  # a hole; handled with its outer contour
+            area = _pixel_area(contour)
+            hole = _largest_child(contours, hierarchy[0], idx)
+            hole_area = _pixel_area(hole) - cv2.arcLength(hole, True) if hole is not None else 0.0
+            pts = contour[:, 0, :]
+            support = float(np.count_nonzero(near_edge[pts[:, 1], pts[:, 0]])) / len(pts)
+            if hole_area < self.config.selection.min_hole_fraction * area:
+                dots.append((pts, area, support))
+            (_, _), (d1, d2), _ = cv2.minAreaRect(contour)
+            outer_full = _to_full(pts, scale, x0, y0)
+            _, mec_r = cv2.minEnclosingCircle(outer_full.astype(np.float32))
+            shape = CandidateShape(
+                area_px=area / (scale * scale),
+                center_v=float(outer_full[:, 1].mean()),
+                radius_px=float(mec_r),
+                axis_ratio=min(d1, d2) / max(d1, d2, 1e-6),
+                hole_fraction=hole_area / area,
+                edge_support=support,
+            )
+            hole_full = _to_full(hole[:, 0, :], scale, x0, y0) if hole is not None else None
+            self._keep(_Region(shape, level, outer_full, hole_full), min_radius_full, regions, rejected)
+        for group in _dot_rings(dots, mask.shape):
+            pts, centers, support, ellipse_area, axis_ratio, center_v = group
+            shape = CandidateShape(
+                area_px=ellipse_area / (scale * scale),
+                center_v=(center_v + 0.5) / scale - 0.5 + y0,
+                radius_px=math.sqrt(ellipse_area / math.pi / max(axis_ratio, 1e-6)) / scale,
+                axis_ratio=axis_ratio,
+                hole_fraction=1.0,
+                edge_support=support,
+            )
+            region = _Region(
+                shape, level, _to_full(pts, scale, x0, y0), None, dotted=True,
+                led_centers=_to_full(centers, scale, x0, y0),
+            )
+            self._keep(region, min_radius_full, regions, rejected)
+        return regions
+
+    def _keep(self, region: _Region, min_radius_px: float, regions: list[_Region], rejected: list[str]) -> None:
+        reason = rejection_reason(region.shape, self.config.selection, min_radius_px)
+        if reason is None:
+            regions.append(region)
+        else:
+            rejected.append(reason)
+
+    def _min_radius_px(self) -> float:
+        focal = self.camera.focal_px if self.camera is not None else 0.0
+        return focal * self.config.marker_radius_m / self.config.max_range_m
+
+    # ------------------------------------------------------------------ fit
+    def _fit(self, region: _Region, candidates: int) -> Detection:
+        (mu, mv), mr = cv2.minEnclosingCircle(region.outer.astype(np.float32))
+        common = dict(
+            found=True, threshold=region.threshold, candidates=candidates,
+            mec_u=float(mu), mec_v=float(mv), mec_radius_px=float(mr),
+        )
+        outer = self._fit_ellipse(region.outer)
+        if outer is None:  # too little of the outline is usable (image border, lens fold)
+            return Detection(u=float(mu), v=float(mv), radius_px=float(mr), **common)
+        inner, cue_noise = None, 0.0
+        if region.hole is not None and is_ring(region.shape, self.config.selection):
+            inner_fit = self._fit_ellipse_with_error(region.hole)
+            outer_fit = self._fit_ellipse_with_error(region.outer)
+            if inner_fit is not None and outer_fit is not None and inner_fit[0].semi_major < outer.semi_major:
+                inner = inner_fit[0]
+                cue_noise = math.hypot(inner_fit[1], outer_fit[1])
+        marker_radius = self.config.marker_radius_m
+        if inner is None and not region.dotted:  # a solid blob: its outline is all we have
+            u, v, focal = self._center_pixels(outer.center_x, outer.center_y)
+            return Detection(
+                u=u, v=v, radius_px=outer.semi_major * focal, ellipse=outer, **common,
+                pose=pose_from_circle((outer.center_x, outer.center_y), outer.semi_major, marker_radius),
+            )
+        if inner is None:  # separate LEDs: their outlines straddle the centre line
+            centre_line = outer
+            solution = ring_center_solution(centre_line, marker_radius, led_points=self._led_points(region))
+        else:  # a continuous strip: the centre line lies midway between its two outlines
+            centre_line = Ellipse(
+                center_x=0.5 * (outer.center_x + inner.center_x),
+                center_y=0.5 * (outer.center_y + inner.center_y),
+                semi_major=0.5 * (outer.semi_major + inner.semi_major),
+                semi_minor=0.5 * (outer.semi_minor + inner.semi_minor),
+                angle_rad=outer.angle_rad,
+            )
+            solution = ring_center_solution(centre_line, marker_radius, outer, inner, cue_noise)
+        if solution is None:
+            pose = pose_from_circle((centre_line.center_x, centre_line.center_y), centre_line.semi_major, marker_radius)
+            normal = None
+        else:
+            pose = pose_from_point(solution[0])
+            normal = None if solution[1] is None else (float(solution[1][0]), float(solution[1][1]), float(solution[1][2]))
+        x, y = pose.offset_x_m / pose.range_m, pose.offset_y_m / pose.range_m
+        u, v, focal = self._center_pixels(x, y)
+        return Detection(
+            u=u, v=v, radius_px=centre_line.semi_major * focal, is_ring=True, ellipse=centre_line,
+            pose=pose, ring_normal=normal, **common,
+        )
+
+    def _led_points(self, region: _Region) -> np.ndarray | None:
+        """LED image centres on the normalized plane (those that undistort validly)."""
+        if region.led_centers is None or self.camera is None:
+            return None
+        xy, valid = self.camera.pixels_to_normalized(region.led_centers)
+        return xy[valid]
+
+    def _center_pixels(self, x: float, y: float) -> tuple[float, float, float]:
+        """A normalized point as distorted image pixels, and the focal length used."""
+        if self.camera is None:
+            return x, y, 1.0
+        uv = self.camera.normalized_to_pixels(np.array([x, y]))
+        return float(uv[0]), float(uv[1]), self.camera.focal_px
+
+    def _fit_ellipse(self, points_px: np.ndarray | None) -> Ellipse | None:
+        """Ellipse through outline points on the normalized plane (pixel plane without a camera)."""
+        fit = self._fit_ellipse_with_error(points_px)
+        return None if fit is None else fit[0]
+
+    def _fit_ellipse_with_error(self, points_px: np.ndarray | None) -> tuple[Ellipse, float] | None:
+        """The ellipse and the standard error of its centre (normalized units).
+
+        Outline errors are correlated along the outline (scallops of separate LEDs, pixel
+        steps), so the points count as one independent sample per few pixels of outline.
+        """
+        if points_px is None:
+            return None
+        if self.camera is not None:
+            w, h = self.camera.width, self.camera.height
+            inside = (
+                (points_px[:, 0] > 1.0) & (points_px[:, 0] < w - 2.0)
+                & (points_px[:, 1] > 1.0) & (points_px[:, 1] < h - 2.0)
+            )
+            xy, valid = self.camera.pixels_to_normalized(points_px[inside])
+            xy = xy[valid]
+            focal = self.camera.focal_px
+        else:
+            xy, focal = points_px.astype(float), 1.0
+        if len(xy) < 8:
+            return None
+        (cx, cy), (d1, d2), angle = cv2.fitEllipse((xy * focal).astype(np.float32))
+        major, minor = max(d1, d2) / 2.0, min(d1, d2) / 2.0
+        if not (math.isfinite(major) and minor > 0):
+            return None
+        angle_rad = math.radians(angle) if d1 >= d2 else math.radians(angle + 90.0)
+        ellipse = Ellipse(cx / focal, cy / focal, major / focal, minor / focal, angle_rad)
+        residual = _radial_residual(ellipse, xy)
+        rms = float(np.sqrt(np.mean(residual * residual)))
+        independent = max(4.0, len(xy) / 8.0)
+        return ellipse, rms * math.sqrt(2.0 / independent)
+
+
+def _largest_child(contours: tuple, hierarchy: np.ndarray, parent: int) -> np.ndarray | None:
+    child = hierarchy[parent][2]
+    best, best_area = None, 0.0
+    while child != -1:
+        area = cv2.contourArea(contours[child])
+        if area > best_area:
+            best, best_area = contours[child], area
+        child = hierarchy[child][0]
+    return best
+
+
+def _to_full(points: np.ndarray, scale: float, x0: int, y0: int) -> np.ndarray:
+    """Window pixel indices at ``scale`` -> full-resolution pixel coordinates (pixel centres)."""
+    pts = points.astype(np.float64)
+    return (pts + 0.5) / scale - 0.5 + np.array([x0, y0], dtype=np.float64)
+
+
+def _same_region(a: _Region, b: _Region) -> bool:
+    """Two windows can overlap and see one region twice."""
+    ca, cb = a.outer.mean(axis=0), b.outer.mean(axis=0)
+    return float(np.hypot(*(ca - cb))) < 0.3 * max(a.shape.radius_px, b.shape.radius_px)
+
+
+def _overlap(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> float:
+    """Intersection over union of two boxes (x0, y0, x1, y1)."""
+    ix = max(0, min(a[2], b[2]) - max(a[0], b[0]))
+    iy = max(0, min(a[3], b[3]) - max(a[1], b[1]))
+    inter = ix * iy
+    union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter
+    return inter / union if union > 0 else 0.0
+
+
+def _pixel_area(contour: np.ndarray) -> float:
+    """Pixels inside an outline, counted so that a one-pixel blob has area 1, not 0."""
+    return cv2.contourArea(contour) + 0.5 * cv2.arcLength(contour, True) + 1.0
+
+
+def _dot_rings(
+    dots: list[tuple[np.ndarray, float, float]], shape: tuple[int, int], min_dots: int = 6
+) -> list[tuple[np.ndarray, np.ndarray, float, float, float, float]]:
+    """Rings of separate LEDs among the blobs of one window, one per chain of neighbours.
+
+    Blobs are chained when their outlines come closer than 2.5 typical neighbour gaps
+    (found by dilating them), so a ring and its reflection, or a ring and a lamp cluster,
+    are fitted apart, while LEDs that motion blur smeared together still chain.
+    """
+    if len(dots) < min_dots:
+        return []
+    centroids = np.array([d[0].mean(axis=0) for d in dots], dtype=np.float64)
+    radii = np.sqrt(np.array([d[1] for d in dots]) / math.pi)
+    dist = np.hypot(*(centroids[:, None, :] - centroids[None, :, :]).transpose(2, 0, 1))
+    dist -= radii[:, None] + radii[None, :]
+    np.fill_diagonal(dist, np.inf)
+    link = int(2.5 * max(1.0, float(np.median(dist.min(axis=1))))) | 1
+    canvas = np.zeros(shape, np.uint8)
+    cv2.drawContours(canvas, [d[0][:, None, :] for d in dots], -1, 255, -1)
+    canvas = cv2.dilate(canvas, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (link + 2, link + 2)))
+    _, labels = cv2.connectedComponents(canvas)
+    clusters: dict[int, list[int]] = {}
+    for i, d in enumerate(dots):
+        x, y = d[0][0]
+        clusters.setdefault(int(labels[y, x]), []).append(i)
+    rings = []
+    for members in clusters.values():
+        ring = _dot_ring([dots[m] for m in members], min_dots)
+        if ring is not None:
+            rings.append(ring)
+    return rings
+
+
+def _dot_ring(
+    dots: list[tuple[np.ndarray, float, float]], min_dots: int
+) -> tuple[np.ndarray, np.ndarray, float, float, float, float] | None:
+    """Separate LEDs on one ellipse: (outlines, centres, edge support, area, axis ratio, centre row).
+
+    Blobs of similar size are fitted with an ellipse through their centroids; blobs far off
+    it are dropped and the fit repeated. The group counts as a ring when enough LEDs remain
+    and they go most of the way round (at least 5 of 8 sectors), so a few scattered glints
+    cannot pose as one.
+    """
+    if len(dots) < min_dots:
+        return None
+    areas = np.array([d[1] for d in dots])
+    median = float(np.median(areas))
+    members = [i for i, a in enumerate(areas) if median / 5.0 <= a <= median * 5.0]
+    centroids = np.array([d[0].mean(axis=0) for d in dots], dtype=np.float64)
+    for _ in range(3):
+        if len(members) < min_dots:
+            return None
+        (cx, cy), (d1, d2), angle = cv2.fitEllipse(centroids[members].astype(np.float32))
+        if not (min(d1, d2) > 0 and math.isfinite(d1 + d2)):
+            return None
+        t = math.radians(angle)
+        rel = centroids[members] - (cx, cy)
+        xr = (rel[:, 0] * math.cos(t) + rel[:, 1] * math.sin(t)) / (d1 / 2)
+        yr = (-rel[:, 0] * math.sin(t) + rel[:, 1] * math.cos(t)) / (d2 / 2)
+        residual = np.abs(np.hypot(xr, yr) - 1.0)
+        keep = [m for m, r in zip(members, residual) if r < 0.15]
+        if len(keep) == len(members):
+            break
+        members = keep
+    if len(members) < min_dots:
+        return None
+    angles = np.arctan2(centroids[members, 1] - cy, centroids[members, 0] - cx)
+    sectors = len(set(((angles + math.pi) / (2 * math.pi) * 8).astype(int) % 8))
+    if sectors < 5:
+        return None
+    points = np.concatenate([dots[m][0] for m in members])
+    support = float(np.mean([dots[m][2] for m in members]))
+    return points, centroids[members], support, math.pi * d1 * d2 / 4.0, min(d1, d2) / max(d1, d2), float(cy)
+
+
+def _radial_residual(ellipse: Ellipse, xy: np.ndarray) -> np.ndarray:
+    """Approximate distance of points from an ellipse, in the ellipse's units."""
+    c, s = math.cos(ellipse.angle_rad), math.sin(ellipse.angle_rad)
+    rel = xy - (ellipse.center_x, ellipse.center_y)
+    xr = (rel[:, 0] * c + rel[:, 1] * s) / ellipse.semi_major
+    yr = (-rel[:, 0] * s + rel[:, 1] * c) / ellipse.semi_minor
+    rho = np.hypot(xr, yr)
+    return (rho - 1.0) * np.sqrt(ellipse.semi_major * ellipse.semi_minor)

@@ -1,0 +1,76 @@
+"""Which bright region is the dock's ring (paper section 2.3, Fig. 5), and which are not.
+
+Gates first drop what cannot be the marker: too small for the farthest range we accept
+(glints, speckle, distant lamps), too elongated (streaks), or without a real edge around
+it (haze, glow). Among the rest the paper's rule chooses: the largest closed contour,
+and when several are about equally large the lowest in the image, because a surface
+reflection always appears above the light it mirrors. One addition: a region with the
+ring's dark centre beats a solid blob, so a lamp cannot win on size alone once the ring
+is resolved.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from auv_dock_guidance.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class SelectionConfig:
+    """Gates and tie rule. Sizes in full-resolution pixels."""
+
+    min_radius_px: float = 3.0  # smaller: a glint or speckle
+    min_hole_fraction: float = 0.12  # hole area / outer area for a region to count as a ring
+    min_axis_ratio: float = 0.25  # minor / major axis; below: a streak, not a ring
+    min_edge_support: float = 0.3  # share of the outline that lies on an improved-Canny edge
+    tie_ratio: float = 0.7  # areas within this ratio of the largest are "equally large"
+    prefer_rings: bool = True
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.tie_ratio <= 1.0:
+            raise ConfigError(f"tie_ratio {self.tie_ratio} must be in (0, 1]")
+        if self.min_radius_px < 0 or not 0.0 <= self.min_hole_fraction < 1.0:
+            raise ConfigError("min_radius_px must be >= 0 and min_hole_fraction in [0, 1)")
+        if not 0.0 <= self.min_axis_ratio <= 1.0 or not 0.0 <= self.min_edge_support <= 1.0:
+            raise ConfigError("min_axis_ratio and min_edge_support must be in [0, 1]")
+
+
+@dataclass(frozen=True)
+class CandidateShape:
+    """What selection needs to know of one closed region (full-resolution units)."""
+
+    area_px: float
+    center_v: float
+    radius_px: float
+    axis_ratio: float
+    hole_fraction: float
+    edge_support: float
+
+
+def rejection_reason(shape: CandidateShape, config: SelectionConfig, min_radius_px: float) -> str | None:
+    """Why a region cannot be the marker, or None when it passes every gate."""
+    if shape.radius_px < max(config.min_radius_px, min_radius_px):
+        return f"radius {shape.radius_px:.1f} px below {max(config.min_radius_px, min_radius_px):.1f} px"
+    if shape.axis_ratio < config.min_axis_ratio:
+        return f"elongated (axis ratio {shape.axis_ratio:.2f})"
+    if shape.edge_support < config.min_edge_support:
+        return f"no sharp outline (edge support {shape.edge_support:.2f})"
+    return None
+
+
+def is_ring(shape: CandidateShape, config: SelectionConfig) -> bool:
+    return shape.hole_fraction >= config.min_hole_fraction
+
+
+def choose(shapes: list[CandidateShape], config: SelectionConfig) -> int | None:
+    """Index of the marker among regions that passed the gates (paper Fig. 5), or None."""
+    if not shapes:
+        return None
+    pool = list(range(len(shapes)))
+    if config.prefer_rings:
+        rings = [i for i in pool if is_ring(shapes[i], config)]
+        pool = rings or pool
+    largest = max(shapes[i].area_px for i in pool)
+    tied = [i for i in pool if shapes[i].area_px >= config.tie_ratio * largest]
+    return max(tied, key=lambda i: shapes[i].center_v)

@@ -1,0 +1,101 @@
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from auv_dock_guidance.errors import CameraModelError
+from auv_dock_guidance.geometry.camera import CameraModel, paper_camera
+
+CONFIG = Path(__file__).resolve().parents[2] / "config" / "camera_info.yaml"
+
+
+def test_config_camera_info_is_the_papers_table_2():
+    assert CameraModel.from_yaml(CONFIG) == paper_camera()
+
+
+def test_yaml_round_trip(tmp_path, camera):
+    path = tmp_path / "cam.yaml"
+    path.write_text(yaml.safe_dump(camera.to_yaml_dict()))
+    assert CameraModel.from_yaml(path) == camera
+
+
+def test_from_camera_info_fields_matches_yaml(camera):
+    k = camera.matrix.ravel().tolist()
+    built = CameraModel.from_camera_info(1920, 1080, k, list(camera.distortion), "plumb_bob", name="dock_camera")
+    assert built == camera
+
+
+def test_undistortion_inverts_projection_inside_the_fold(camera):
+    rng = np.random.default_rng(0)
+    xy = rng.uniform(-0.45, 0.45, size=(500, 2)) * [1.0, 0.55]
+    pixels = camera.normalized_to_pixels(xy)
+    back, valid = camera.pixels_to_normalized(pixels)
+    assert valid.all()
+    np.testing.assert_allclose(back, xy, atol=1e-9)
+
+
+def test_table_2_lens_folds_near_930_px(camera):
+    fold = camera.fold_radius
+    assert fold is not None and 0.72 < fold < 0.74
+    fold_px = camera.normalized_to_pixels(np.array([fold, 0.0]))[0] - camera.cx
+    assert 920 < fold_px < 940
+
+
+def test_image_corners_beyond_the_fold_are_flagged_not_returned_as_garbage(camera):
+    corners = np.array([[0.0, 0.0], [1919.0, 0.0], [0.0, 1079.0], [1919.0, 1079.0]])
+    _, valid = camera.pixels_to_normalized(corners)
+    assert not valid.any()
+    centre = np.array([[camera.cx, camera.cy], [1500.0, 800.0]])
+    assert camera.pixels_to_normalized(centre)[1].all()
+
+
+def test_projection_beyond_the_fold_is_invalid(camera):
+    points = np.array([[0.0, 0.0, 1.0], [0.8, 0.0, 1.0], [0.0, 0.0, -1.0]])
+    _, valid = camera.project(points)
+    assert valid.tolist() == [True, False, False]
+
+
+def test_camera_without_distortion_has_no_fold():
+    cam = CameraModel(width=640, height=480, fx=500, fy=500, cx=320, cy=240)
+    assert cam.fold_radius is None
+    _, valid = cam.pixels_to_normalized(np.array([[0.0, 0.0]]))
+    assert valid.all()
+
+
+def test_scaled_camera_keeps_normalized_geometry(camera):
+    half = camera.scaled(0.5)
+    xy = np.array([[0.1, -0.2], [0.3, 0.1]])
+    np.testing.assert_allclose(half.normalized_to_pixels(xy), (camera.normalized_to_pixels(xy) + 0.5) * 0.5 - 0.5)
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("image_width: 0\nimage_height: 10\n", "image_width 0 is not a positive integer"),
+        ("just a string", "expected a mapping"),
+        ("image_width: [1\n", "not valid YAML"),
+        (
+            "image_width: 10\nimage_height: 10\ncamera_matrix: {data: [1, 0, 5, 0, .nan, 5, 0, 0, 1]}\n"
+            "distortion_coefficients: {data: []}\n",
+            "NaN or infinity",
+        ),
+        (
+            "image_width: 10\nimage_height: 10\ncamera_matrix: {data: [1, 0, 5]}\n"
+            "distortion_coefficients: {data: []}\n",
+            "expected 9",
+        ),
+        ("image_width: 10\nimage_height: 10\n", "camera_matrix is missing"),
+    ],
+)
+def test_malformed_camera_info_is_named_in_the_error(tmp_path, text, message):
+    path = tmp_path / "bad.yaml"
+    path.write_text(text)
+    with pytest.raises(CameraModelError, match=message) as info:
+        CameraModel.from_yaml(path)
+    assert str(path) in str(info.value)
+
+
+def test_missing_camera_info_file(tmp_path):
+    with pytest.raises(CameraModelError, match="cannot read"):
+        CameraModel.from_yaml(tmp_path / "nope.yaml")

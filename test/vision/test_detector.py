@@ -1,0 +1,135 @@
+import math
+
+import numpy as np
+import pytest
+
+from auv_dock_guidance.errors import ConfigError, ImageInputError
+from auv_dock_guidance.sim.evaluate import judge, population, run_frames, summarize
+from auv_dock_guidance.sim.scene import Lamp, SceneSpec, render
+from auv_dock_guidance.vision.detector import Detector, DetectorConfig
+
+
+def _detect(camera, spec, detector=None):
+    image, truth = render(camera, spec)
+    detection = (detector or Detector(camera)).detect(image)
+    return detection, truth
+
+
+@pytest.mark.parametrize("range_m", [2.5, 5.0, 9.0, 15.0])
+@pytest.mark.parametrize("led_count", [0, 32])
+def test_marker_found_with_accurate_centre_and_range(camera, range_m, led_count):
+    spec = SceneSpec(marker_center_m=(0.4, -0.2, range_m), led_count=led_count, brightness=3.0,
+                     attenuation_per_m=0.08, seed=3)
+    detection, truth = _detect(camera, spec)
+    assert detection.found, detection.reason
+    assert math.hypot(detection.u - truth.center_px[0], detection.v - truth.center_px[1]) < 2.0
+    assert detection.pose.range_m == pytest.approx(range_m, rel=0.03)
+    assert detection.pose.yaw_deg == pytest.approx(math.degrees(math.atan2(0.4, range_m)), abs=0.1)
+    assert detection.is_ring
+
+
+def test_tilted_ring_at_close_range_is_centred_better_than_the_papers_circle(camera):
+    spec = SceneSpec(marker_center_m=(0.5, 0.3, 2.5), marker_normal=(0.3, 0.0, -1.0), brightness=3.0, seed=4)
+    detection, truth = _detect(camera, spec)
+    ours = math.hypot(detection.u - truth.center_px[0], detection.v - truth.center_px[1])
+    paper = math.hypot(detection.mec_u - truth.center_px[0], detection.mec_v - truth.center_px[1])
+    assert ours < 1.5 and paper > 4.0
+    assert detection.ring_normal is not None
+
+
+def test_surface_reflection_of_similar_size_above_is_not_chosen(camera):
+    spec = SceneSpec(marker_center_m=(0.0, 0.8, 8.0), surface_height_m=1.2, reflection_gain=1.0, seed=6)
+    detection, truth = _detect(camera, spec)
+    assert detection.found
+    assert abs(detection.v - truth.center_px[1]) < 3.0
+    assert detection.v > truth.reflection_center_px[1] + 100
+
+
+def test_bright_lamps_do_not_win_over_the_ring(camera):
+    lamps = (Lamp(300, 300, 9, 4.0), Lamp(1600, 900, 6, 4.0), Lamp(900, 950, 3, 2.0))
+    spec = SceneSpec(marker_center_m=(0.3, 0.0, 12.0), lamps=lamps, seed=7)
+    detection, truth = _detect(camera, spec)
+    assert detection.found
+    assert math.hypot(detection.u - truth.center_px[0], detection.v - truth.center_px[1]) < 2.0
+
+
+def test_empty_water_and_glints_give_no_detection(camera):
+    glints = tuple(Lamp(100 + 170 * i, 80 + 90 * i, 1.5, 1.0) for i in range(10))
+    detection, _ = _detect(camera, SceneSpec(marker_center_m=None, lamps=glints, seed=8))
+    assert not detection.found
+    assert detection.reason
+
+
+def test_marker_cut_by_the_frame_edge_is_still_centred(camera):
+    # Centre ~100 px from the right edge, ring radius ~200 px there: part of it is out of view.
+    spec = SceneSpec(marker_center_m=(1.3, 0.0, 2.5), brightness=3.0, seed=9)
+    detection, truth = _detect(camera, spec)
+    assert truth.center_px[0] + truth.radius_px > camera.width
+    assert detection.found
+    assert math.hypot(detection.u - truth.center_px[0], detection.v - truth.center_px[1]) < 5.0
+
+
+def test_threshold_state_carries_over_a_sequence(camera):
+    detector = Detector(camera)
+    assert detector.threshold.fraction is None
+    _detect(camera, SceneSpec(marker_center_m=(0.0, 0.0, 3.0), seed=1), detector)
+    near_share = detector.threshold.fraction
+    for _ in range(3):
+        _detect(camera, SceneSpec(marker_center_m=None, seed=2), detector)
+    assert detector.threshold.fraction < near_share
+    detector.reset()
+    assert detector.threshold.fraction is None
+
+
+def test_grayscale_and_four_channel_images_are_accepted(camera):
+    image, truth = render(camera, SceneSpec(marker_center_m=(0.0, 0.0, 6.0), seed=1))
+    gray = image.max(axis=2)
+    bgra = np.dstack([image, np.full(image.shape[:2], 255, np.uint8)])
+    for variant in (gray, bgra, image.astype(np.uint16) * 257):
+        detection = Detector(camera).detect(variant)
+        assert detection.found
+        assert abs(detection.u - truth.center_px[0]) < 2.0
+
+
+@pytest.mark.parametrize(
+    "image, message",
+    [
+        (np.zeros((0, 0, 3), np.uint8), "empty"),
+        (np.zeros((1080, 1920, 3), np.float32), "pixel type"),
+        (np.zeros((1080, 1920, 2), np.uint8), "2 channels"),
+    ],
+)
+def test_unusable_images_are_refused_with_a_reason(camera, image, message):
+    with pytest.raises(ImageInputError, match=message):
+        Detector(camera).detect(image)
+
+
+def test_image_size_must_match_the_camera(camera):
+    with pytest.raises(ConfigError, match="640x480"):
+        Detector(camera).detect(np.zeros((480, 640, 3), np.uint8))
+
+
+def test_bad_detector_configuration_is_refused():
+    with pytest.raises(ConfigError, match="marker_radius_m"):
+        DetectorConfig(marker_radius_m=-0.35)
+
+
+def test_population_meets_the_foundation_targets(camera):
+    """A small slice of `auv-dock evaluate`: the full 300 frames are run by the CLI."""
+    outcomes = run_frames(camera, DetectorConfig(), population(camera, 40, seed=21))
+    report = summarize(outcomes)
+    assert report["false_positives"] == 0
+    assert report["reflection_chosen"] == 0
+    assert report["detection_rate"] >= 0.9
+    assert report["yaw_error_deg_p95"] < 0.3
+    assert report["range_error_rel_p95"] < 0.05
+
+
+def test_judge_flags_a_detection_on_the_reflection(camera):
+    spec = SceneSpec(marker_center_m=(0.0, 0.8, 8.0), surface_height_m=1.2, seed=6)
+    _, truth = render(camera, spec)
+    from auv_dock_guidance.vision.detector import Detection
+
+    on_reflection = Detection(found=True, u=truth.reflection_center_px[0], v=truth.reflection_center_px[1])
+    outcome = judge(on_reflection, truth, "reflection")
+    assert outcome.chose_reflection and not outcome.correct

@@ -1,0 +1,32 @@
+from auv_dock_guidance.vision.selection import CandidateShape, SelectionConfig, choose, rejection_reason
+
+
+def shape(area: float, v: float, hole: float = 0.8, radius: float = 50.0, axis: float = 1.0, edge: float = 1.0):
+    return CandidateShape(area, v, radius, axis, hole, edge)
+
+
+def test_largest_region_wins():
+    assert choose([shape(1000, 500), shape(3000, 100)], SelectionConfig()) == 1
+
+
+def test_lowest_of_equally_large_regions_wins_because_reflections_are_above():
+    marker, reflection = shape(2900, 700), shape(3000, 200)
+    assert choose([reflection, marker], SelectionConfig()) == 1
+
+
+def test_a_ring_beats_a_larger_solid_lamp():
+    lamp, ring = shape(9000, 800, hole=0.0), shape(3000, 300)
+    assert choose([lamp, ring], SelectionConfig()) == 1
+
+
+def test_nothing_to_choose_from():
+    assert choose([], SelectionConfig()) is None
+
+
+def test_gates_name_the_reason():
+    config = SelectionConfig()
+    assert "radius" in rejection_reason(shape(10, 0, radius=2.0), config, 0.0)
+    assert "radius" in rejection_reason(shape(10, 0, radius=10.0), config, min_radius_px=15.0)
+    assert "elongated" in rejection_reason(shape(10, 0, axis=0.1), config, 0.0)
+    assert "outline" in rejection_reason(shape(10, 0, edge=0.1), config, 0.0)
+    assert rejection_reason(shape(10, 0), config, 0.0) is None
