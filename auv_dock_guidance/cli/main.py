@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from auv_dock_guidance import __version__
-from auv_dock_guidance.cli import demo, detect, evaluate
+from auv_dock_guidance.cli import demo, detect, evaluate, link
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -20,6 +20,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_parser(subparsers)
     detect.add_parser(subparsers)
     evaluate.add_parsers(subparsers)
+    link.add_parsers(subparsers)
     return parser
 
 

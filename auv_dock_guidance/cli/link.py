@@ -1,0 +1,79 @@
+"""`auv-dock link-selftest` and `auv-dock mock-controller`: the serial link off-vehicle."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from pathlib import Path
+
+from auv_dock_guidance.cli.common import fail, positive_float, print_json, rounded
+from auv_dock_guidance.cli.progress import Progress
+from auv_dock_guidance.sim.link_selftest import run_selftest
+from auv_dock_guidance.sim.main_controller import MainControllerSim
+
+
+def add_parsers(subparsers: argparse._SubParsersAction) -> None:
+    s = subparsers.add_parser(
+        "link-selftest",
+        help="the serial bridge against the simulated main controller over a pseudo-terminal",
+        description="Send thruster commands at 30 Hz through the real bridge and protocol to the "
+        "simulated main controller, then stop and time the failsafe.",
+    )
+    s.add_argument("--seconds", type=positive_float, default=3.0, help="how long to send commands (default %(default)s)")
+    s.add_argument("--json", action="store_true", help="print one JSON object")
+    s.set_defaults(run=run_selftest_command)
+
+    m = subparsers.add_parser(
+        "mock-controller",
+        help="run the simulated main controller on a pseudo-terminal until Ctrl-C",
+        description="Open a pseudo-terminal, speak the main-controller protocol on it, apply "
+        "received PWM to a simple vehicle model and send telemetry.",
+    )
+    m.add_argument("--port", metavar="PATH", help="also make PATH a symbolic link to the pseudo-terminal")
+    m.add_argument("--telemetry-hz", type=positive_float, default=50.0, help="telemetry rate (default %(default)s)")
+    m.set_defaults(run=run_mock_controller)
+
+
+def run_selftest_command(args: argparse.Namespace) -> int:
+    report = run_selftest(args.seconds, progress=Progress("link self-test", int(args.seconds * 30)))
+    data = {
+        "frames_sent": report.frames_sent,
+        "frames_received": report.frames_received,
+        "crc_errors": report.crc_errors,
+        "roundtrip_ms_p50": rounded(report.roundtrip_ms_p50, 2),
+        "roundtrip_ms_p95": rounded(report.roundtrip_ms_p95, 2),
+        "failsafe_ms": rounded(report.failsafe_ms, 1),
+        "controller_crc_errors": report.controller_crc_errors,
+    }
+    if args.json:
+        print_json(data)
+    else:
+        for key, value in data.items():
+            print(f"{key:24}{value}")
+    return 0 if report.failsafe_ms is not None and report.frames_received > 0 else 1
+
+
+def run_mock_controller(args: argparse.Namespace) -> int:
+    link = Path(args.port) if args.port else None
+    if link is not None and (link.exists() or link.is_symlink()) and not link.is_symlink():
+        fail(f"{link} exists and is not a symbolic link; not replacing it")
+    with MainControllerSim(telemetry_hz=args.telemetry_hz) as controller:
+        if link is not None:
+            if link.is_symlink():
+                link.unlink()
+            os.symlink(controller.port, link)
+        print(f"main controller simulator on {link or controller.port} ({controller.port}); Ctrl-C stops", flush=True)
+        try:
+            while True:
+                time.sleep(1.0)
+                s = controller.state
+                print(f"armed={controller.armed} pwm={controller.applied} yaw={s.yaw:+.3f} pitch={s.pitch:+.3f} "
+                      f"frames={controller.decoder.stats.frames} crc_errors={controller.decoder.stats.crc_errors}",
+                      flush=True)
+        except KeyboardInterrupt:
+            pass
+        finally:
+            if link is not None and link.is_symlink():
+                link.unlink()
+    return 0

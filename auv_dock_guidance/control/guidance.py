@@ -1,0 +1,180 @@
+"""The guidance state machine around the cascaded controller and the mixer.
+
+States:
+
+* SEARCH: no confirmed marker. Hold heading, level, no forward thrust.
+* TRACK: the marker is confirmed (``confirm_frames`` detections in a row); the cascade
+  steers towards it at the scheduled speed.
+* TERMINAL: close range (below ``terminal_range_m``). The ring fills the frame or leaves
+  it, so a lost marker is expected: the last good attitude goal is held, turns stay rate
+  limited, and the vehicle keeps going at terminal speed. Lost while still farther than
+  ``blind_range_m`` (where it should be in view) for ``terminal_lost_timeout_s``: ABORT.
+* DOCKED: the main controller reports the latch, or in TERMINAL the dead-reckoned run
+  since the last sighting covers the last range plus a margin.
+* ABORT: marker lost too long, search timed out, telemetry stale, attitude out of limits.
+  Neutral thrust until ``reset()`` (re-arm).
+
+SEARCH can only reach TERMINAL through TRACK. Every transition is returned once, with
+its reason, for the caller to log.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from enum import Enum
+
+from auv_dock_guidance.control.cascade import Attitude, CascadeConfig, CascadeController, Demands, Target
+from auv_dock_guidance.control.mixer import Mixer, MixerConfig, ThrusterCommand
+from auv_dock_guidance.errors import ConfigError
+
+
+class State(str, Enum):
+    SEARCH = "SEARCH"
+    TRACK = "TRACK"
+    TERMINAL = "TERMINAL"
+    DOCKED = "DOCKED"
+    ABORT = "ABORT"
+
+
+@dataclass(frozen=True)
+class GuidanceConfig:
+    confirm_frames: int = 3  # detections in a row before TRACK
+    terminal_range_m: float = 2.5
+    track_lost_timeout_s: float = 2.0  # TRACK without a detection this long -> SEARCH
+    blind_range_m: float = 1.5  # below this the ring is expected to leave the frame: go on blind
+    terminal_lost_timeout_s: float = 3.0  # lost this long in TERMINAL while farther than blind_range_m -> ABORT
+    search_timeout_s: float = 120.0  # SEARCH this long -> ABORT
+    dock_margin_m: float = 0.3  # dead-reckoned run past the last range that counts as docked
+    telemetry_timeout_s: float = 0.5
+    detection_max_age_s: float = 0.5  # an older detection is not acted on
+    max_roll_rad: float = math.radians(20)
+    max_pitch_rad: float = math.radians(40)
+    cascade: CascadeConfig = field(default_factory=CascadeConfig)
+    mixer: MixerConfig = field(default_factory=MixerConfig)
+
+    def __post_init__(self) -> None:
+        positive = (
+            self.terminal_range_m, self.track_lost_timeout_s, self.terminal_lost_timeout_s, self.search_timeout_s,
+            self.telemetry_timeout_s, self.detection_max_age_s, self.max_roll_rad, self.max_pitch_rad,
+            self.blind_range_m,
+        )
+        if not all(math.isfinite(v) and v > 0 for v in positive) or self.confirm_frames < 1 or self.dock_margin_m < 0:
+            raise ConfigError("guidance timeouts, ranges and limits must be positive numbers, confirm_frames >= 1")
+
+
+@dataclass(frozen=True)
+class Transition:
+    time_s: float
+    previous: State
+    state: State
+    reason: str
+
+
+@dataclass(frozen=True)
+class GuidanceOutput:
+    state: State
+    command: ThrusterCommand
+    demands: Demands | None
+    transition: Transition | None
+
+
+class Guidance:
+    """One control tick at a time: ``update(now, new_target, attitude)``."""
+
+    def __init__(self, config: GuidanceConfig = GuidanceConfig()) -> None:
+        self.config = config
+        self.cascade = CascadeController(config.cascade)
+        self.mixer = Mixer(config.mixer)
+        self.reset()
+
+    def reset(self) -> None:
+        """Back to SEARCH (re-arm after ABORT or DOCKED)."""
+        self.state = State.SEARCH
+        self.cascade.reset()
+        self._since = None  # time the current state began
+        self._streak = 0
+        self._last_target: Target | None = None
+        self._last_time: float | None = None
+        self._run_since_sighting = 0.0
+
+    @property
+    def last_target(self) -> Target | None:
+        return self._last_target
+
+    def update(
+        self, now_s: float, target: Target | None, attitude: Attitude | None, docked_signal: bool = False
+    ) -> GuidanceOutput:
+        """Advance to ``now_s`` with the newest detection (None if none arrived) and attitude."""
+        c = self.config
+        dt = 0.0 if self._last_time is None else max(0.0, now_s - self._last_time)
+        self._last_time = now_s
+        if self._since is None:
+            self._since = now_s
+        if target is not None and (not target.is_valid() or now_s - target.stamp_s > c.detection_max_age_s):
+            target = None
+        transition = self._next_state(now_s, target, attitude, docked_signal)
+        if self.state in (State.ABORT, State.DOCKED) or attitude is None:
+            return GuidanceOutput(self.state, self.mixer.neutral(), None, transition)
+        if target is not None:
+            self._last_target = target
+            self._run_since_sighting = 0.0
+            self.cascade.on_target(target, attitude)
+        if self.state is State.SEARCH:
+            if self.cascade.setpoint is None or target is None:
+                self.cascade.hold(attitude.yaw_rad, 0.0)
+            demands = self.cascade.update(attitude, now_s, 0.0)
+        else:
+            seen = self._last_target.range_m - self._run_since_sighting if self._last_target else None
+            speed = self.cascade.speed_for_range(seen)
+            demands = self.cascade.update(attitude, now_s, speed)
+            self._run_since_sighting += speed * dt
+        return GuidanceOutput(self.state, self.mixer.mix(demands.surge, demands.yaw, demands.pitch), demands, transition)
+
+    def _next_state(
+        self, now_s: float, target: Target | None, attitude: Attitude | None, docked_signal: bool
+    ) -> Transition | None:
+        c = self.config
+        previous = self.state
+        self._streak = self._streak + 1 if target is not None else 0
+        last_seen = self._last_target.stamp_s if self._last_target else None
+        lost_for = now_s - last_seen if last_seen is not None else math.inf
+        if target is not None:
+            lost_for = 0.0
+        reason = None
+        new_state = previous
+        if previous in (State.ABORT, State.DOCKED):
+            return None
+        if attitude is None or now_s - attitude.stamp_s > c.telemetry_timeout_s or not attitude.is_valid():
+            new_state, reason = State.ABORT, "telemetry from the main controller is stale or invalid"
+        elif abs(attitude.roll_rad) > c.max_roll_rad or abs(attitude.pitch_rad) > c.max_pitch_rad:
+            new_state = State.ABORT
+            reason = f"attitude out of limits (roll {math.degrees(attitude.roll_rad):.0f} deg, " \
+                     f"pitch {math.degrees(attitude.pitch_rad):.0f} deg)"
+        elif docked_signal and previous in (State.TRACK, State.TERMINAL):
+            new_state, reason = State.DOCKED, "main controller reports the dock latch closed"
+        elif previous is State.SEARCH:
+            if self._streak >= c.confirm_frames:
+                new_state, reason = State.TRACK, f"marker confirmed in {self._streak} frames"
+            elif now_s - (self._since or now_s) > c.search_timeout_s:
+                new_state, reason = State.ABORT, f"no marker for {c.search_timeout_s:.0f} s"
+        elif previous is State.TRACK:
+            if target is not None and target.range_m < c.terminal_range_m:
+                new_state, reason = State.TERMINAL, f"range {target.range_m:.2f} m below {c.terminal_range_m} m"
+            elif lost_for > c.track_lost_timeout_s:
+                new_state, reason = State.SEARCH, f"marker lost for {lost_for:.1f} s"
+        elif previous is State.TERMINAL:
+            last_range = self._last_target.range_m if self._last_target else 0.0
+            if target is None and self._run_since_sighting >= last_range + c.dock_margin_m:
+                new_state = State.DOCKED
+                reason = f"ran {self._run_since_sighting:.2f} m past the last sighting at {last_range:.2f} m"
+            elif lost_for > c.terminal_lost_timeout_s and last_range > c.blind_range_m:
+                new_state = State.ABORT
+                reason = f"marker lost for {lost_for:.1f} s at {last_range:.2f} m, where it should be in view"
+        if new_state is previous or reason is None:
+            return None
+        self.state = new_state
+        self._since = now_s
+        if new_state is State.SEARCH:
+            self._streak = 0
+        return Transition(now_s, previous, new_state, reason)

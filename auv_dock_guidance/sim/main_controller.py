@@ -1,0 +1,191 @@
+"""A simulated main controller on a pseudo-terminal: the vehicle's side of the serial link.
+
+It speaks the protocol, applies the thruster commands it receives to a vehicle model,
+sends telemetry at a fixed rate, and keeps its own watchdog (neutral and the FAILSAFE
+status bit after ``watchdog_s`` without a command). Every command that arrives is logged
+with its arrival time, so tests and `auv-dock link-selftest` can measure what the
+vehicle really saw.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import threading
+import time
+import tty
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Protocol
+
+from auv_dock_guidance.control.mixer import DEFAULT_ALLOCATION
+from auv_dock_guidance.link.protocol import (
+    ArmMsg,
+    HeartbeatMsg,
+    Status,
+    StreamDecoder,
+    TelemetryMsg,
+    ThrusterCommandMsg,
+    encode,
+)
+
+NEUTRAL = (1500, 1500, 1500, 1500)
+
+
+@dataclass
+class VehicleState:
+    roll: float = 0.0
+    pitch: float = 0.0
+    yaw: float = 0.0
+    depth: float = 2.0
+    roll_rate: float = 0.0
+    pitch_rate: float = 0.0
+    yaw_rate: float = 0.0
+    docked: bool = False
+
+
+class VehicleModel(Protocol):
+    def step(self, pwm_us: tuple[int, int, int, int], dt: float) -> VehicleState: ...
+
+
+@dataclass
+class SimpleVehicle:
+    """First-order yaw and pitch response to the four stern thrusters; enough for link tests."""
+
+    state: VehicleState = field(default_factory=VehicleState)
+    yaw_gain: float = 1.2  # rad/s^2 per unit yaw demand
+    pitch_gain: float = 1.0
+    damping: float = 1.5  # 1/s
+    restoring: float = 1.0  # pitch back to level, 1/s^2
+
+    def step(self, pwm_us: tuple[int, int, int, int], dt: float) -> VehicleState:
+        thrust = [(p - 1500) / 400.0 for p in pwm_us]
+        yaw_demand = sum(t * row[1] for t, row in zip(thrust, DEFAULT_ALLOCATION)) / 4.0
+        pitch_demand = sum(t * row[2] for t, row in zip(thrust, DEFAULT_ALLOCATION)) / 4.0
+        s = self.state
+        s.yaw_rate += dt * (self.yaw_gain * yaw_demand - self.damping * s.yaw_rate)
+        s.pitch_rate += dt * (self.pitch_gain * pitch_demand - self.damping * s.pitch_rate - self.restoring * s.pitch)
+        s.yaw = (s.yaw + dt * s.yaw_rate + math.pi) % (2 * math.pi) - math.pi
+        s.pitch += dt * s.pitch_rate
+        return s
+
+
+@dataclass(frozen=True)
+class CommandRecord:
+    time_s: float
+    seq: int
+    pwm_us: tuple[int, int, int, int]
+    armed: bool
+
+
+class MainControllerSim:
+    """Run in a background thread; ``port`` is the pseudo-terminal the bridge opens."""
+
+    def __init__(
+        self,
+        vehicle: VehicleModel | None = None,
+        telemetry_hz: float = 50.0,
+        watchdog_s: float = 0.5,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.vehicle = vehicle or SimpleVehicle()
+        self.telemetry_hz = telemetry_hz
+        self.watchdog_s = watchdog_s
+        self.clock = clock
+        self.decoder = StreamDecoder()
+        self.log: list[CommandRecord] = []
+        self.applied: tuple[int, int, int, int] = NEUTRAL
+        self.armed = False
+        self.state = VehicleState()
+        self.heartbeats = 0
+        self._last_command_time = -math.inf
+        self._last_seq = 0
+        self._seq = 0
+        self._failsafe = False
+        self._master, slave = os.openpty()
+        tty.setraw(self._master)
+        tty.setraw(slave)
+        self.port = os.ttyname(slave)
+        self._slave = slave  # kept open so the pty survives the bridge reconnecting
+        os.set_blocking(self._master, False)
+        self._stop = threading.Event()
+        self._lock = threading.Lock()
+        self._thread: threading.Thread | None = None
+
+    def start(self) -> MainControllerSim:
+        self._thread = threading.Thread(target=self._run, name="main-controller-sim", daemon=True)
+        self._thread.start()
+        return self
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=2.0)
+        for fd in (self._master, self._slave):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+
+    def __enter__(self) -> MainControllerSim:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def records(self) -> list[CommandRecord]:
+        with self._lock:
+            return list(self.log)
+
+    def _run(self) -> None:
+        period = 1.0 / self.telemetry_hz
+        last = self.clock()
+        next_telemetry = last
+        while not self._stop.is_set():
+            self._read()
+            now = self.clock()
+            if now - self._last_command_time > self.watchdog_s and self.applied != NEUTRAL:
+                self.applied, self._failsafe = NEUTRAL, True
+            self.state = self.vehicle.step(self.applied if self.armed else NEUTRAL, now - last)
+            last = now
+            if now >= next_telemetry:
+                next_telemetry = now + period
+                self._write(self._telemetry(now))
+            time.sleep(0.001)
+
+    def _read(self) -> None:
+        try:
+            data = os.read(self._master, 4096)
+        except (BlockingIOError, OSError):
+            return
+        now = self.clock()
+        for frame in self.decoder.feed(data):
+            msg = frame.message
+            if isinstance(msg, ThrusterCommandMsg):
+                with self._lock:
+                    self.log.append(CommandRecord(now, frame.seq, msg.pwm_us, msg.armed))
+                self._last_command_time = now
+                self._last_seq = frame.seq
+                self.applied = msg.pwm_us if (msg.armed and self.armed) else NEUTRAL
+                self._failsafe = False
+            elif isinstance(msg, ArmMsg):
+                self.armed = msg.arm
+            elif isinstance(msg, HeartbeatMsg):
+                self.heartbeats += 1
+
+    def _telemetry(self, now: float) -> bytes:
+        s = self.state
+        status = (Status.ARMED if self.armed else 0) | (Status.FAILSAFE if self._failsafe else 0)
+        status |= Status.DOCKED if s.docked else 0
+        msg = TelemetryMsg(
+            int(now * 1000), s.roll, s.pitch, s.yaw, s.depth, s.roll_rate, s.pitch_rate, s.yaw_rate,
+            int(status), self.applied, self._last_seq,
+        )
+        self._seq = (self._seq + 1) & 0xFF
+        return encode(msg, self._seq)
+
+    def _write(self, data: bytes) -> None:
+        try:
+            os.write(self._master, data)
+        except (BlockingIOError, OSError):
+            pass  # nobody reading: a real UART drops bytes too

@@ -1,0 +1,105 @@
+import math
+
+from auv_dock_guidance.control.cascade import Attitude, Target
+from auv_dock_guidance.control.guidance import Guidance, State
+from auv_dock_guidance.sim.main_controller import SimpleVehicle
+
+PU, SU, PL, SL = range(4)
+
+
+def level(t: float, yaw: float = 0.0, pitch: float = 0.0) -> Attitude:
+    return Attitude(t, 0.0, pitch, yaw, 2.0)
+
+
+def target(t: float, range_m: float = 8.0, x: float = 0.0, y: float = 0.0) -> Target:
+    return Target(t, range_m, x, y)
+
+
+def run(guidance: Guidance, seconds: float, make_target, start: float = 0.0, dt: float = 1 / 30):
+    outputs, t = [], start
+    while t < start + seconds:
+        outputs.append(guidance.update(t, make_target(t), level(t)))
+        t += dt
+    return outputs
+
+
+def test_confirmed_marker_starts_tracking_and_logs_why():
+    g = Guidance()
+    outs = run(g, 0.2, lambda t: target(t))
+    transitions = [o.transition for o in outs if o.transition]
+    assert transitions[0].previous is State.SEARCH and transitions[0].state is State.TRACK
+    assert "confirmed" in transitions[0].reason
+
+
+def test_search_cannot_jump_to_terminal():
+    g = Guidance()
+    outs = run(g, 0.5, lambda t: target(t, range_m=1.5))
+    states = [o.state for o in outs]
+    assert states.index(State.TRACK) < states.index(State.TERMINAL)
+
+
+def test_marker_to_the_right_turns_right_and_below_pitches_down():
+    g = Guidance()
+    right = run(g, 1.0, lambda t: target(t, x=1.0))[-1].command.thrust
+    assert right[PU] > right[SU] and right[PL] > right[SL]
+    g = Guidance()
+    below = run(g, 1.0, lambda t: target(t, y=1.0))[-1].command.thrust
+    assert below[PU] > below[PL]  # upper pair pushes: nose down
+
+
+def test_lost_marker_in_track_returns_to_search_with_no_thrust():
+    g = Guidance()
+    run(g, 1.0, lambda t: target(t))
+    outs = run(g, 3.0, lambda t: None, start=1.0)
+    assert outs[-1].state is State.SEARCH
+    assert all(abs(x) < 0.7 for x in outs[-1].command.thrust)
+    assert outs[-1].demands.surge == 0.0
+
+
+def test_stale_telemetry_aborts_with_neutral_thrust():
+    g = Guidance()
+    run(g, 1.0, lambda t: target(t))
+    out = g.update(1.1, target(1.1), Attitude(0.2, 0, 0, 0, 2))  # attitude 0.9 s old
+    assert out.state is State.ABORT and "telemetry" in out.transition.reason
+    assert out.command.pwm_us == (1500, 1500, 1500, 1500)
+
+
+def test_attitude_out_of_limits_aborts():
+    g = Guidance()
+    out = g.update(0.0, None, Attitude(0.0, math.radians(30), 0, 0, 2))
+    assert out.state is State.ABORT and "roll" in out.transition.reason
+
+
+def test_terminal_holds_course_through_dropouts_then_docks_by_dead_reckoning():
+    g = Guidance()
+    run(g, 1.0, lambda t: target(t, range_m=1.2))
+    assert g.state is State.TERMINAL
+    outs = run(g, 20.0, lambda t: None, start=1.0)
+    states = [o.state for o in outs]
+    assert State.DOCKED in states and State.ABORT not in states
+    terminal = [o for o in outs if o.state is State.TERMINAL]
+    assert all(o.demands.surge > 0 for o in terminal)
+
+
+def test_yaw_converges_on_the_bearing_in_closed_loop():
+    vehicle = SimpleVehicle()
+    g = Guidance()
+    dock_bearing = math.radians(10)
+    t, dt = 0.0, 0.02
+    for _ in range(int(20 / dt)):
+        s = vehicle.state
+        att = Attitude(t, s.roll, s.pitch, s.yaw, s.depth)
+        bearing = dock_bearing - s.yaw
+        tgt = Target(t, 8.0, 8.0 * math.tan(bearing), 0.0)
+        out = g.update(t, tgt, att)
+        vehicle.step(out.command.pwm_us, dt)
+        t += dt
+    assert abs(vehicle.state.yaw - dock_bearing) < math.radians(1.5)
+
+
+def test_marker_lost_in_terminal_while_it_should_be_visible_aborts():
+    g = Guidance()
+    run(g, 1.0, lambda t: target(t, range_m=2.2))
+    outs = run(g, 5.0, lambda t: None, start=1.0)
+    aborted = [o for o in outs if o.transition and o.transition.state is State.ABORT]
+    assert aborted and "should be in view" in aborted[0].transition.reason
