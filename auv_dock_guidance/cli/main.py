@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from auv_dock_guidance import __version__
-from auv_dock_guidance.cli import demo, detect, evaluate, link
+from auv_dock_guidance.cli import calibrate, demo, detect, evaluate, link
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -21,6 +21,7 @@ def build_parser() -> argparse.ArgumentParser:
     detect.add_parser(subparsers)
     evaluate.add_parsers(subparsers)
     link.add_parsers(subparsers)
+    calibrate.add_parsers(subparsers)
     return parser
 
 
