@@ -83,7 +83,8 @@ def find_corners(gray: np.ndarray, board: Board) -> np.ndarray | None:
     found, corners = cv2.findChessboardCorners(gray, (board.columns, board.rows), flags=flags)
     if not found:
         return None
-    return cv2.cornerSubPix(gray, corners, (11, 11), (-1, -1), _SUBPIX_CRITERIA)
+    refined = cv2.cornerSubPix(gray, corners, (11, 11), (-1, -1), _SUBPIX_CRITERIA)
+    return refined.reshape(-1, 1, 2)  # OpenCV 5 returns (N, 2), 4.x (N, 1, 2)
 
 
 def calibrate(
