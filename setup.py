@@ -18,13 +18,17 @@ setup(
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
         (f"share/{PACKAGE}/launch", glob("launch_scripts/*.launch.py")),
-        (f"share/{PACKAGE}/config", glob("config/*.yaml")),
+        (f"share/{PACKAGE}/config", glob("config/*.yaml") + glob("config/*.xml") + glob("config/*.json")),
     ],
     install_requires=["setuptools", "numpy", "pyyaml", "pyserial"],
     zip_safe=True,
     entry_points={
         "console_scripts": [
             "auv-dock = auv_dock_guidance.cli.main:main",
+            "dock_camera_ingest = auv_dock_guidance.nodes.camera_ingest:main",
+            "dock_detector = auv_dock_guidance.nodes.detector:main",
+            "dock_guidance = auv_dock_guidance.nodes.guidance:main",
+            "dock_serial_bridge = auv_dock_guidance.nodes.serial_bridge:main",
         ],
     },
 )

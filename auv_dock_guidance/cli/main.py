@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from auv_dock_guidance import __version__
-from auv_dock_guidance.cli import calibrate, demo, detect, evaluate, link
+from auv_dock_guidance.cli import calibrate, demo, detect, evaluate, link, run
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -22,6 +22,7 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_parsers(subparsers)
     link.add_parsers(subparsers)
     calibrate.add_parsers(subparsers)
+    run.add_parser(subparsers)
     return parser
 
 

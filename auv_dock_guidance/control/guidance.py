@@ -3,7 +3,8 @@
 States:
 
 * SEARCH: no confirmed marker. Hold heading, level, no forward thrust.
-* TRACK: the marker is confirmed (``confirm_frames`` detections in a row); the cascade
+* TRACK: the marker is confirmed (``confirm_frames`` frames in a row with it; a frame
+  without it, reported by ``marker_missed()``, starts the count again); the cascade
   steers towards it at the scheduled speed.
 * TERMINAL: close range (below ``terminal_range_m``). The ring fills the frame or leaves
   it, so a lost marker is expected: the last good attitude goal is held, turns stay rate
@@ -11,8 +12,10 @@ States:
   ``blind_range_m`` (where it should be in view) for ``terminal_lost_timeout_s``: ABORT.
 * DOCKED: the main controller reports the latch, or in TERMINAL the dead-reckoned run
   since the last sighting covers the last range plus a margin.
-* ABORT: marker lost too long, search timed out, telemetry stale, attitude out of limits.
-  Neutral thrust until ``reset()`` (re-arm).
+* ABORT: marker lost too long, search timed out, telemetry stale while driving (TRACK,
+  TERMINAL), attitude out of limits. Neutral thrust until ``reset()`` (re-arm).
+
+Without fresh telemetry nothing but neutral is ever commanded, in any state.
 
 SEARCH can only reach TERMINAL through TRACK. Every transition is returned once, with
 its reason, for the caller to log.
@@ -80,13 +83,23 @@ class GuidanceOutput:
 
 
 class Guidance:
-    """One control tick at a time: ``update(now, new_target, attitude)``."""
+    """One control tick at a time: ``update(now, new_target, attitude)``.
+
+    Ticks may come faster than camera frames (the inner loop); ``target`` is None on
+    ticks without a new frame, which is not a miss.
+    """
 
     def __init__(self, config: GuidanceConfig = GuidanceConfig()) -> None:
         self.config = config
         self.cascade = CascadeController(config.cascade)
         self.mixer = Mixer(config.mixer)
         self.reset()
+
+    def reconfigure(self, config: GuidanceConfig) -> None:
+        """New limits and gains at run time; the state stays, the loops restart from zero."""
+        self.config = config
+        self.cascade = CascadeController(config.cascade)
+        self.mixer = Mixer(config.mixer)
 
     def reset(self) -> None:
         """Back to SEARCH (re-arm after ABORT or DOCKED)."""
@@ -97,6 +110,10 @@ class Guidance:
         self._last_target: Target | None = None
         self._last_time: float | None = None
         self._run_since_sighting = 0.0
+
+    def marker_missed(self) -> None:
+        """A camera frame came without the marker: confirmation starts again."""
+        self._streak = 0
 
     @property
     def last_target(self) -> Target | None:
@@ -113,6 +130,8 @@ class Guidance:
             self._since = now_s
         if target is not None and (not target.is_valid() or now_s - target.stamp_s > c.detection_max_age_s):
             target = None
+        if attitude is not None and (not attitude.is_valid() or now_s - attitude.stamp_s > c.telemetry_timeout_s):
+            attitude = None
         transition = self._next_state(now_s, target, attitude, docked_signal)
         if self.state in (State.ABORT, State.DOCKED) or attitude is None:
             return GuidanceOutput(self.state, self.mixer.neutral(), None, transition)
@@ -136,17 +155,23 @@ class Guidance:
     ) -> Transition | None:
         c = self.config
         previous = self.state
-        self._streak = self._streak + 1 if target is not None else 0
+        if target is not None:
+            self._streak += 1
         last_seen = self._last_target.stamp_s if self._last_target else None
         lost_for = now_s - last_seen if last_seen is not None else math.inf
         if target is not None:
             lost_for = 0.0
+        elif lost_for > c.track_lost_timeout_s:
+            self._streak = 0
         reason = None
         new_state = previous
         if previous in (State.ABORT, State.DOCKED):
             return None
-        if attitude is None or now_s - attitude.stamp_s > c.telemetry_timeout_s or not attitude.is_valid():
-            new_state, reason = State.ABORT, "telemetry from the main controller is stale or invalid"
+        if attitude is None:
+            if previous in (State.TRACK, State.TERMINAL):
+                new_state, reason = State.ABORT, "telemetry from the main controller is stale or invalid"
+            else:
+                self._streak = 0  # no tracking without navigation
         elif abs(attitude.roll_rad) > c.max_roll_rad or abs(attitude.pitch_rad) > c.max_pitch_rad:
             new_state = State.ABORT
             reason = f"attitude out of limits (roll {math.degrees(attitude.roll_rad):.0f} deg, " \

@@ -103,3 +103,31 @@ def test_marker_lost_in_terminal_while_it_should_be_visible_aborts():
     outs = run(g, 5.0, lambda t: None, start=1.0)
     aborted = [o for o in outs if o.transition and o.transition.state is State.ABORT]
     assert aborted and "should be in view" in aborted[0].transition.reason
+
+
+def test_search_without_telemetry_waits_with_neutral_thrust_instead_of_aborting():
+    g = Guidance()
+    outs = [g.update(t * 0.1, target(t * 0.1), None) for t in range(10)]
+    assert all(o.state is State.SEARCH for o in outs)
+    assert all(o.command.pwm_us == (1500, 1500, 1500, 1500) for o in outs)
+
+
+def test_control_ticks_between_frames_do_not_break_the_confirmation():
+    g = Guidance()
+    t = 0.0
+    for frame in range(4):
+        g.update(t, target(t), level(t))
+        for _ in range(4):  # 50 Hz ticks between 10 Hz frames
+            t += 0.02
+            g.update(t, None, level(t))
+        t += 0.02
+    assert g.state is State.TRACK
+
+
+def test_a_frame_without_the_marker_restarts_the_confirmation():
+    g = Guidance()
+    g.update(0.0, target(0.0), level(0.0))
+    g.update(0.1, target(0.1), level(0.1))
+    g.marker_missed()
+    g.update(0.2, target(0.2), level(0.2))
+    assert g.state is State.SEARCH

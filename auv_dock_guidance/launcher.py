@@ -1,0 +1,105 @@
+"""Start the nodes as processes from one parameter file, as `ros2 launch` would, without ROS tooling.
+
+Used by `auv-dock run`, the demo, the latency bench and the integration tests. Each node
+runs as ``python -m auv_dock_guidance.nodes.<name>`` with ``--ros-args --params-file``;
+overrides use the node-qualified form (``-p detector:marker_radius_m:=0.4``) so they beat
+the node's own section of the file. The environment selects the shared-memory Fast DDS
+profile and, unless told otherwise, localhost-only discovery.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import IO, Any
+
+from auv_dock_guidance.resources import config_file
+
+NODE_MODULES = {
+    "camera_ingest": "auv_dock_guidance.nodes.camera_ingest",
+    "detector": "auv_dock_guidance.nodes.detector",
+    "guidance": "auv_dock_guidance.nodes.guidance",
+    "serial_bridge": "auv_dock_guidance.nodes.serial_bridge",
+}
+
+
+def ros_environment(domain_id: int | None = None, localhost_only: bool = True) -> dict[str, str]:
+    env = dict(os.environ)
+    env.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(config_file("fastdds_shm.xml")))
+    if localhost_only:
+        env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    if domain_id is not None:
+        env["ROS_DOMAIN_ID"] = str(domain_id)
+    env["PYTHONUNBUFFERED"] = "1"
+    env.setdefault("RCUTILS_LOGGING_BUFFERED_STREAM", "0")  # log lines reach files as they happen
+    return env
+
+
+def _format(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return str(value)
+
+
+@dataclass
+class NodeGroup:
+    nodes: list[str]
+    params_file: Path = field(default_factory=lambda: config_file("dock_guidance.yaml"))
+    overrides: dict[str, dict[str, Any]] = field(default_factory=dict)
+    env: dict[str, str] = field(default_factory=ros_environment)
+    log_dir: Path | None = None  # None: output goes to this process's stdout/stderr
+    processes: dict[str, subprocess.Popen] = field(default_factory=dict)
+    _logs: list[IO[bytes]] = field(default_factory=list)
+
+    def command(self, name: str) -> list[str]:
+        argv = [sys.executable, "-m", NODE_MODULES[name], "--ros-args", "--params-file", str(self.params_file)]
+        for key, value in self.overrides.get(name, {}).items():
+            argv += ["-p", f"{name}:{key}:={_format(value)}"]
+        return argv
+
+    def start(self) -> NodeGroup:
+        for name in self.nodes:
+            if name not in NODE_MODULES:
+                raise ValueError(f"unknown node {name!r}; known: {', '.join(NODE_MODULES)}")
+            out: Any = None
+            if self.log_dir is not None:
+                self.log_dir.mkdir(parents=True, exist_ok=True)
+                out = open(self.log_dir / f"{name}.log", "wb")
+                self._logs.append(out)
+            self.processes[name] = subprocess.Popen(
+                self.command(name), env=self.env, stdout=out, stderr=subprocess.STDOUT if out else None,
+                stdin=subprocess.DEVNULL, start_new_session=True,
+            )
+        return self
+
+    def exited(self) -> dict[str, int]:
+        return {n: p.returncode for n, p in self.processes.items() if p.poll() is not None}
+
+    def stop(self, timeout_s: float = 5.0) -> dict[str, int | None]:
+        """Ctrl-C each node, wait, then terminate and kill what is left."""
+        for p in self.processes.values():
+            if p.poll() is None:
+                p.send_signal(signal.SIGINT)
+        deadline = time.monotonic() + timeout_s
+        for sig in (signal.SIGTERM, signal.SIGKILL):
+            for p in self.processes.values():
+                remaining = deadline - time.monotonic()
+                try:
+                    p.wait(timeout=max(0.1, remaining))
+                except subprocess.TimeoutExpired:
+                    p.send_signal(sig)
+            deadline = time.monotonic() + 2.0
+        for log in self._logs:
+            log.close()
+        return {n: p.returncode for n, p in self.processes.items()}
+
+    def __enter__(self) -> NodeGroup:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()

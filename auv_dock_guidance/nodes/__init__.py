@@ -1,0 +1,1 @@
+"""Thin rclpy wrappers around the core: one node per file, a console script each."""

@@ -1,0 +1,166 @@
+"""camera_ingest node: frames from a camera, a video, a folder or the simulator, published with camera info.
+
+Publishes   camera/image_raw (sensor_msgs/Image, bgr8), camera/camera_info (sensor_msgs/CameraInfo),
+            /diagnostics (1 Hz: frames, drops, stalls)
+Subscribes  sim/vehicle_pose (geometry_msgs/PoseStamped, source 'sim' only)
+Sources (parameter ``source``): 'device' (V4L2 index or path), 'video' (file or GStreamer
+pipeline via OpenCV), 'folder' (images in name order, optionally looping), 'sim' (renders
+the pool scene from the vehicle pose the simulator publishes).
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import PoseStamped
+from rclpy.node import Node
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import CameraInfo, Image
+
+from auv_dock_guidance.errors import ConfigError, DockGuidanceError
+from auv_dock_guidance.geometry.camera import CameraModel, paper_camera
+from auv_dock_guidance.nodes.common import Param, declare, run_node
+from auv_dock_guidance.nodes.conversions import array_to_image, camera_to_info, pose_to_vehicle, seconds_stamp
+from auv_dock_guidance.sim.scene import render
+from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
+from auv_dock_guidance.vision.image_input import read_image
+
+IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"}
+
+PARAMS = [
+    Param("source", "sim", "device, video, folder or sim", read_only=True),
+    Param("path", "", "device index or path, video file or pipeline, or image folder", read_only=True),
+    Param("loop", False, "folder/video: start again at the end", read_only=True),
+    Param("rate_hz", 30.0, "frame rate for folder and sim sources (Hz)", 0.1, 240.0, read_only=True),
+    Param("camera_info_file", "", "camera_info YAML (empty: the paper's calibration)", read_only=True),
+    Param("sim_scale", 0.5, "sim source: render at this share of the camera resolution", 0.1, 1.0, read_only=True),
+    Param("sim_reflection", False, "sim source: the surface reflects the ring", read_only=True),
+    Param("reliable", True, "reliable image QoS (with the shared-memory profile) instead of best effort", read_only=True),
+    Param("stall_timeout_s", 1.0, "no frame from the source this long is reported as a stall (s)", 0.1, 60.0),
+]
+
+
+class CameraIngestNode(Node):
+    def __init__(self) -> None:
+        super().__init__("camera_ingest")
+        self.values = declare(self, PARAMS)
+        base = CameraModel.from_yaml(self.values["camera_info_file"]) if self.values["camera_info_file"] else paper_camera()
+        source = self.values["source"]
+        self.camera = base.scaled(self.values["sim_scale"]) if source == "sim" else base
+        reliability = ReliabilityPolicy.RELIABLE if self.values["reliable"] else ReliabilityPolicy.BEST_EFFORT
+        qos = QoSProfile(depth=1, history=HistoryPolicy.KEEP_LAST, reliability=reliability)
+        self.image_pub = self.create_publisher(Image, "camera/image_raw", qos)
+        self.info_pub = self.create_publisher(CameraInfo, "camera/camera_info", 1)
+        self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.frames = 0
+        self.failures = 0
+        self.stalls = 0
+        self._last_frame = time.monotonic()
+        self._stalled = False
+        self._capture = None
+        self._files: list[Path] = []
+        self._index = 0
+        self._pose: VehiclePose | None = None
+        if source == "sim":
+            self.world = PoolWorld(reflection=self.values["sim_reflection"])
+            self.create_subscription(PoseStamped, "sim/vehicle_pose", self._on_pose, 1)
+        elif source == "folder":
+            folder = Path(self.values["path"])
+            if not folder.is_dir():
+                raise ConfigError(f"source folder {folder} does not exist")
+            self._files = sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+            if not self._files:
+                raise ConfigError(f"source folder {folder} holds no images ({', '.join(sorted(IMAGE_SUFFIXES))})")
+        elif source in ("device", "video"):
+            path = self.values["path"]
+            self._capture = cv2.VideoCapture(int(path) if path.isdigit() else path)
+            if not self._capture.isOpened():
+                raise ConfigError(f"cannot open {source} {path!r}")
+        else:
+            raise ConfigError(f"source {source!r} must be device, video, folder or sim")
+        period = 0.001 if source in ("device", "video") else 1.0 / self.values["rate_hz"]
+        self.create_timer(period, self._on_timer)
+        self.create_timer(1.0, self._publish_diagnostics)
+        self.get_logger().info(f"source {source} {self.values['path']} -> {self.camera.width}x{self.camera.height}")
+
+    def close(self) -> None:
+        if self._capture is not None:
+            self._capture.release()
+
+    def _on_pose(self, msg: PoseStamped) -> None:
+        self._pose = pose_to_vehicle(msg)
+
+    def _next_frame(self) -> np.ndarray | None:
+        source = self.values["source"]
+        if source == "sim":
+            if self._pose is None:
+                return None
+            image, _ = render(self.camera, self.world.scene_for(self._pose, seed=self.frames))
+            return image
+        if source == "folder":
+            if self._index >= len(self._files):
+                if not self.values["loop"]:
+                    return None
+                self._index = 0
+            path = self._files[self._index]
+            self._index += 1
+            try:
+                return read_image(path)
+            except DockGuidanceError as exc:
+                self.failures += 1
+                self.get_logger().error(f"skipped {exc}", throttle_duration_sec=5.0)
+                return None
+        assert self._capture is not None
+        ok, frame = self._capture.read()
+        if not ok:
+            if self.values["loop"] and source == "video":
+                self._capture.set(cv2.CAP_PROP_POS_FRAMES, 0)
+            return None
+        return frame
+
+    def _on_timer(self) -> None:
+        frame = self._next_frame()
+        now = time.monotonic()
+        if frame is None:
+            if not self._stalled and now - self._last_frame > self.values["stall_timeout_s"]:
+                self._stalled = True
+                self.stalls += 1
+                self.get_logger().warn(f"no frame from the {self.values['source']} source for "
+                                       f"{now - self._last_frame:.1f} s")
+            return
+        if self._stalled:
+            self._stalled = False
+            self.get_logger().info("frames again")
+        self._last_frame = now
+        if frame.shape[:2] != (self.camera.height, self.camera.width):
+            self.failures += 1
+            self.get_logger().error(f"frame is {frame.shape[1]}x{frame.shape[0]}, camera_info says "
+                                    f"{self.camera.width}x{self.camera.height}: dropped", throttle_duration_sec=5.0)
+            return
+        stamp = seconds_stamp(time.time())
+        self.info_pub.publish(camera_to_info(self.camera, stamp))
+        self.image_pub.publish(array_to_image(frame, stamp, self.camera.frame_id))
+        self.frames += 1
+
+    def _publish_diagnostics(self) -> None:
+        status = DiagnosticStatus(name="auv_dock_guidance: camera_ingest", hardware_id=self.values["source"])
+        status.level = DiagnosticStatus.WARN if self._stalled else DiagnosticStatus.OK
+        status.message = "stalled" if self._stalled else "streaming"
+        status.values = [KeyValue(key="frames", value=str(self.frames)), KeyValue(key="failures", value=str(self.failures)),
+                         KeyValue(key="stalls", value=str(self.stalls))]
+        array = DiagnosticArray()
+        array.header.stamp = self.get_clock().now().to_msg()
+        array.status = [status]
+        self.diag_pub.publish(array)
+
+
+def main(args: list[str] | None = None) -> int:
+    return run_node(CameraIngestNode, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,90 @@
+"""What every node shares: start-up and shutdown, declared parameters with ranges."""
+
+from __future__ import annotations
+
+import math
+import sys
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from typing import Any
+
+import rclpy
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rclpy.exceptions import InvalidParameterValueException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from auv_dock_guidance.errors import DockGuidanceError
+
+
+@dataclass(frozen=True)
+class Param:
+    """One declared parameter: default, what it means, and its allowed range."""
+
+    name: str
+    default: Any
+    description: str
+    low: float | None = None
+    high: float | None = None
+    read_only: bool = False
+
+    def descriptor(self) -> ParameterDescriptor:
+        d = ParameterDescriptor(description=self.description, read_only=self.read_only)
+        if self.low is not None and self.high is not None:
+            if isinstance(self.default, bool):
+                pass
+            elif isinstance(self.default, int):
+                d.integer_range = [IntegerRange(from_value=int(self.low), to_value=int(self.high), step=1)]
+            elif isinstance(self.default, float):
+                d.floating_point_range = [FloatingPointRange(from_value=float(self.low), to_value=float(self.high))]
+        return d
+
+
+def declare(node: Node, params: Iterable[Param]) -> dict[str, Any]:
+    """Declare every parameter (a YAML file or -p overrides apply) and return the values."""
+    values = {}
+    for p in params:
+        values[p.name] = node.declare_parameter(p.name, p.default, p.descriptor()).value
+    return values
+
+
+def on_parameter_change(node: Node, apply: Callable[[dict[str, Any]], str | None]) -> None:
+    """Validate runtime changes: ``apply`` gets the changed values and returns a reason to refuse, or None."""
+
+    def callback(changes: list[Parameter]) -> SetParametersResult:
+        values = {c.name: c.value for c in changes}
+        for name, value in values.items():
+            if isinstance(value, float) and not math.isfinite(value):
+                return SetParametersResult(successful=False, reason=f"{name}: {value} is not a finite number")
+        reason = apply(values)
+        if reason is None:
+            node.get_logger().info("parameters changed: " + ", ".join(f"{k}={v}" for k, v in values.items()))
+        return SetParametersResult(successful=reason is None, reason=reason or "")
+
+    node.add_on_set_parameters_callback(callback)
+
+
+def run_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:
+    """Initialise rclpy, spin one node until Ctrl-C or shutdown, and clean up."""
+    rclpy.init(args=args)
+    node = None
+    code = 0
+    try:
+        node = factory()
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except (DockGuidanceError, InvalidParameterValueException) as exc:
+        print(f"error: {exc}", file=sys.stderr, flush=True)
+        code = 2
+    finally:
+        if node is not None:
+            close = getattr(node, "close", None)
+            if close is not None:
+                close()
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code

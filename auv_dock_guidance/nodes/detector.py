@@ -1,0 +1,193 @@
+"""detector node: camera frames in, the dock's position and bearing out.
+
+Subscribes  camera/image_raw (sensor_msgs/Image), camera/camera_info (sensor_msgs/CameraInfo)
+Publishes   dock/target (geometry_msgs/PointStamped, metres, camera optical frame),
+            dock/bearing (geometry_msgs/Vector3Stamped: x yaw rad, y pitch rad, z range m),
+            dock/detected (std_msgs/Bool, every frame),
+            dock/debug_image/compressed (sensor_msgs/CompressedImage, JPEG, throttled),
+            /diagnostics (diagnostic_msgs/DiagnosticArray, 1 Hz)
+The image subscription keeps only the newest frame: a slow frame never queues stale ones.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from typing import Any
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import PointStamped, Vector3Stamped
+from rclpy.node import Node
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image
+from std_msgs.msg import Bool
+
+from auv_dock_guidance.errors import DockGuidanceError
+from auv_dock_guidance.geometry.camera import CameraModel
+from auv_dock_guidance.nodes.common import Param, declare, on_parameter_change, run_node
+from auv_dock_guidance.nodes.conversions import image_to_array, info_to_camera
+from auv_dock_guidance.vision.detector import Detector, DetectorConfig
+from auv_dock_guidance.vision.overlay import overlay_jpeg
+from auv_dock_guidance.vision.selection import SelectionConfig
+from auv_dock_guidance.vision.threshold import ThresholdConfig
+
+PARAMS = [
+    Param("marker_radius_m", 0.35, "radius of the LED ring's centre line (m)", 0.01, 5.0),
+    Param("max_range_m", 40.0, "rings that look smaller than at this range are rejected (m)", 1.0, 200.0),
+    Param("camera_info_file", "", "camera_info YAML; empty: use the camera_info topic"),
+    Param("reliable", True, "reliable image QoS (with the shared-memory profile) instead of best effort", read_only=True),
+    Param("debug_image_rate_hz", 2.0, "debug overlay rate (0 = off)", 0.0, 30.0),
+    Param("debug_image_scale", 0.25, "debug overlay size relative to the frame", 0.05, 1.0),
+    Param("debug_jpeg_quality", 60, "debug overlay JPEG quality", 10, 100),
+    Param("threshold.reference_radius_px", 80.0, "apparent ring radius at an intermediate range (px)", 5.0, 1000.0),
+    Param("threshold.fraction_at_reference", 0.4, "threshold share of (peak - background) there", 0.05, 0.95),
+    Param("threshold.fraction_far", 0.2, "lowest share (faint, far light)", 0.01, 0.95),
+    Param("threshold.fraction_near", 0.6, "highest share (LEDs, not halo)", 0.05, 0.99),
+    Param("threshold.floor_grey", 8.0, "threshold floor above the background (grey levels)", 0.0, 100.0),
+    Param("threshold.floor_noise_sigmas", 5.0, "threshold floor in noise deviations", 0.0, 20.0),
+    Param("selection.tie_ratio", 0.7, "areas within this ratio count as equally large", 0.05, 1.0),
+]
+
+
+def detector_config(values: dict[str, Any]) -> DetectorConfig:
+    """Raises ConfigError with a reason when the combination is invalid."""
+    threshold = ThresholdConfig(**{k.split(".", 1)[1]: float(v) for k, v in values.items() if k.startswith("threshold.")})
+    selection = SelectionConfig(tie_ratio=float(values["selection.tie_ratio"]))
+    return DetectorConfig(
+        marker_radius_m=float(values["marker_radius_m"]),
+        max_range_m=float(values["max_range_m"]),
+        threshold=threshold,
+        selection=selection,
+    )
+
+
+class DetectorNode(Node):
+    def __init__(self) -> None:
+        super().__init__("detector")
+        self.values = declare(self, PARAMS)
+        self.config = detector_config(self.values)
+        camera = CameraModel.from_yaml(self.values["camera_info_file"]) if self.values["camera_info_file"] else None
+        self.detector = Detector(camera, self.config)
+        on_parameter_change(self, self._apply_parameters)
+        reliability = ReliabilityPolicy.RELIABLE if self.values["reliable"] else ReliabilityPolicy.BEST_EFFORT
+        newest_only = QoSProfile(depth=1, history=HistoryPolicy.KEEP_LAST, reliability=reliability)
+        self.create_subscription(Image, "camera/image_raw", self._on_image, newest_only)
+        self.create_subscription(CameraInfo, "camera/camera_info", self._on_camera_info, 1)
+        self.target_pub = self.create_publisher(PointStamped, "dock/target", 10)
+        self.bearing_pub = self.create_publisher(Vector3Stamped, "dock/bearing", 10)
+        self.detected_pub = self.create_publisher(Bool, "dock/detected", 10)
+        self.debug_pub = self.create_publisher(CompressedImage, "dock/debug_image/compressed", 1)
+        self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.create_timer(1.0, self._publish_diagnostics)
+        self._times: deque[tuple[float, float, bool]] = deque(maxlen=300)  # (wall time, processing s, found)
+        self._bad_frames = 0
+        self._last_debug = 0.0
+        self._found = False
+        self._warned_no_camera = False
+
+    def _apply_parameters(self, changes: dict[str, Any]) -> str | None:
+        values = {**self.values, **changes}
+        try:
+            config = detector_config(values)
+        except DockGuidanceError as exc:
+            return str(exc)
+        self.values, self.config = values, config
+        self.detector.config = config
+        self.detector.threshold.config = config.threshold
+        return None
+
+    def _on_camera_info(self, msg: CameraInfo) -> None:
+        if self.values["camera_info_file"]:
+            return
+        try:
+            camera = info_to_camera(msg)
+        except DockGuidanceError as exc:
+            self.get_logger().error(f"camera_info rejected: {exc}", throttle_duration_sec=10.0)
+            return
+        if camera != self.detector.camera:
+            self.get_logger().info(f"camera model {camera.width}x{camera.height} fx {camera.fx:.1f} from camera_info")
+            self.detector.camera = camera
+
+    def _on_image(self, msg: Image) -> None:
+        if self.detector.camera is None:
+            if not self._warned_no_camera:
+                self._warned_no_camera = True
+                self.get_logger().warn("no camera model yet (camera_info topic or camera_info_file): frames skipped")
+            return
+        start = time.perf_counter()
+        try:
+            frame = image_to_array(msg)
+            detection = self.detector.detect(frame)
+        except DockGuidanceError as exc:
+            self._bad_frames += 1
+            self.get_logger().error(f"frame rejected: {exc}", throttle_duration_sec=5.0)
+            return
+        elapsed = time.perf_counter() - start
+        self._times.append((time.monotonic(), elapsed, detection.found))
+        if detection.found != self._found:
+            self._found = detection.found
+            self.get_logger().info("marker found" if detection.found else f"marker lost: {detection.reason}")
+        self.detected_pub.publish(Bool(data=detection.found))
+        pose = detection.pose
+        if detection.found and pose is not None:
+            target = PointStamped()
+            target.header = msg.header
+            target.header.frame_id = self.detector.camera.frame_id if msg.header.frame_id == "" else msg.header.frame_id
+            target.point.x, target.point.y, target.point.z = pose.offset_x_m, pose.offset_y_m, pose.range_m
+            self.target_pub.publish(target)
+            bearing = Vector3Stamped()
+            bearing.header = target.header
+            bearing.vector.x, bearing.vector.y, bearing.vector.z = pose.yaw_rad, pose.pitch_rad, pose.range_m
+            self.bearing_pub.publish(bearing)
+        self._maybe_publish_debug(msg, frame, detection)
+
+    def _maybe_publish_debug(self, msg: Image, frame: Any, detection: Any) -> None:
+        rate = self.values["debug_image_rate_hz"]
+        now = time.monotonic()
+        if rate <= 0 or now - self._last_debug < 1.0 / rate or self.debug_pub.get_subscription_count() == 0:
+            return
+        self._last_debug = now
+        camera = self.detector.camera
+        share = self.detector.threshold.fraction
+        text = (f"{'FOUND' if detection.found else 'SEARCH'} thr {detection.threshold:.0f} "
+                f"share {share if share is not None else float('nan'):.2f}")
+        if detection.pose is not None:
+            text += f" r {detection.pose.range_m:.1f}m yaw {detection.pose.yaw_deg:+.1f} pitch {detection.pose.pitch_deg:+.1f}"
+        out = CompressedImage()
+        out.header = msg.header
+        out.format = "jpeg"
+        out.data = overlay_jpeg(frame, detection, (camera.cx, camera.cy), text,
+                                self.values["debug_image_scale"], self.values["debug_jpeg_quality"])
+        self.debug_pub.publish(out)
+
+    def _publish_diagnostics(self) -> None:
+        now = time.monotonic()
+        recent = [t for t in self._times if now - t[0] < 5.0]
+        fps = len(recent) / 5.0
+        status = DiagnosticStatus(name="auv_dock_guidance: detector", hardware_id="camera")
+        if not recent:
+            status.level, status.message = DiagnosticStatus.WARN, "no frames in the last 5 s"
+        else:
+            status.level, status.message = DiagnosticStatus.OK, f"{fps:.1f} fps"
+        processing = sorted(t[1] for t in recent)
+        rate = sum(t[2] for t in recent) / len(recent) if recent else 0.0
+        share = self.detector.threshold.fraction
+        status.values = [
+            KeyValue(key="fps", value=f"{fps:.2f}"),
+            KeyValue(key="processing_ms_p50", value=f"{1000 * processing[len(processing) // 2]:.2f}" if processing else "nan"),
+            KeyValue(key="detection_rate", value=f"{rate:.3f}"),
+            KeyValue(key="threshold_share", value=f"{share:.3f}" if share is not None else "nan"),
+            KeyValue(key="rejected_frames", value=str(self._bad_frames)),
+        ]
+        array = DiagnosticArray()
+        array.header.stamp = self.get_clock().now().to_msg()
+        array.status = [status]
+        self.diag_pub.publish(array)
+
+
+def main(args: list[str] | None = None) -> int:
+    return run_node(DetectorNode, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

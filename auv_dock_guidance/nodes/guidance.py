@@ -1,0 +1,171 @@
+"""guidance node: the dock's position and the vehicle's attitude in, thruster commands out.
+
+Subscribes  dock/target (geometry_msgs/PointStamped), dock/detected (std_msgs/Bool),
+            vehicle/imu (sensor_msgs/Imu), vehicle/depth (std_msgs/Float64), vehicle/docked (std_msgs/Bool)
+Publishes   thrusters/command (std_msgs/UInt16MultiArray: pulse widths in us for
+            port upper, starboard upper, port lower, starboard lower),
+            guidance/demands (geometry_msgs/Vector3Stamped: x surge, y yaw, z pitch, normalized),
+            guidance/setpoint (geometry_msgs/Vector3Stamped: x yaw rad, y pitch rad, z speed m/s;
+            stamped with the camera frame that produced it),
+            guidance/state (std_msgs/String), guidance/transition (std_msgs/String, latched)
+A new target is acted on at once (lowest latency); a timer runs the inner loop between frames.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from geometry_msgs.msg import PointStamped, Vector3Stamped
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile
+from sensor_msgs.msg import Imu
+from std_msgs.msg import Bool, Float64, MultiArrayDimension, String, UInt16MultiArray
+
+from auv_dock_guidance.control.cascade import CascadeConfig, Target
+from auv_dock_guidance.control.guidance import Guidance, GuidanceConfig, GuidanceOutput
+from auv_dock_guidance.control.mixer import MixerConfig
+from auv_dock_guidance.control.pid import PidGains
+from auv_dock_guidance.errors import DockGuidanceError
+from auv_dock_guidance.nodes.common import Param, declare, on_parameter_change, run_node
+from auv_dock_guidance.nodes.conversions import imu_to_attitude, seconds_stamp, stamp_seconds
+
+PARAMS = [
+    Param("control_rate_hz", 50.0, "inner-loop rate between camera frames (Hz)", 5.0, 500.0, read_only=True),
+    Param("thrusters_file", "", "thruster allocation YAML (empty: the default four stern thrusters)", read_only=True),
+    Param("confirm_frames", 3, "detections in a row before tracking", 1, 30),
+    Param("terminal_range_m", 2.5, "range below which the terminal phase starts (m)", 0.3, 20.0),
+    Param("blind_range_m", 1.5, "below this range losing the ring is expected (m)", 0.1, 10.0),
+    Param("track_lost_timeout_s", 2.0, "marker lost this long while tracking: back to search (s)", 0.1, 60.0),
+    Param("terminal_lost_timeout_s", 3.0, "marker lost this long in terminal while it should be visible: abort (s)",
+          0.1, 60.0),
+    Param("search_timeout_s", 120.0, "no marker this long: abort (s)", 1.0, 3600.0),
+    Param("telemetry_timeout_s", 0.5, "telemetry older than this: abort (s)", 0.05, 10.0),
+    Param("cruise_speed_mps", 0.41, "approach speed (m/s)", 0.0, 3.0),
+    Param("terminal_speed_mps", 0.25, "speed in the terminal phase (m/s)", 0.0, 3.0),
+    Param("full_thrust_speed_mps", 1.2, "steady speed at full surge thrust (m/s)", 0.1, 5.0),
+    Param("outer.kp", 0.12, "outer loop: rad of turn per metre of offset", 0.0, 5.0),
+    Param("outer.ki", 0.01, "outer loop integral gain", 0.0, 5.0),
+    Param("inner.kp", 1.5, "inner loop: moment per rad of attitude error", 0.0, 50.0),
+    Param("inner.ki", 0.1, "inner loop integral gain", 0.0, 50.0),
+    Param("inner.kd", 0.6, "inner loop derivative gain", 0.0, 50.0),
+    Param("max_turn_deg", 25.0, "largest yaw turn the outer loop may ask for (deg)", 1.0, 90.0),
+]
+
+
+def guidance_config(v: dict[str, Any], mixer: MixerConfig) -> GuidanceConfig:
+    turn = math.radians(v["max_turn_deg"])
+    outer = PidGains(kp=v["outer.kp"], ki=v["outer.ki"], output_limit=turn)
+    inner = PidGains(kp=v["inner.kp"], ki=v["inner.ki"], kd=v["inner.kd"], output_limit=0.6)
+    cascade = CascadeConfig(
+        outer_yaw=outer, outer_pitch=outer, inner_yaw=inner, inner_pitch=inner,
+        cruise_speed_mps=v["cruise_speed_mps"], terminal_speed_mps=v["terminal_speed_mps"],
+        full_thrust_speed_mps=v["full_thrust_speed_mps"],
+    )
+    return GuidanceConfig(
+        confirm_frames=v["confirm_frames"], terminal_range_m=v["terminal_range_m"], blind_range_m=v["blind_range_m"],
+        track_lost_timeout_s=v["track_lost_timeout_s"], terminal_lost_timeout_s=v["terminal_lost_timeout_s"],
+        search_timeout_s=v["search_timeout_s"], telemetry_timeout_s=v["telemetry_timeout_s"],
+        cascade=cascade, mixer=mixer,
+    )
+
+
+class GuidanceNode(Node):
+    def __init__(self) -> None:
+        super().__init__("guidance")
+        self.values = declare(self, PARAMS)
+        path = self.values["thrusters_file"]
+        self.mixer_config = MixerConfig.from_yaml(path) if path else MixerConfig()
+        self.guidance = Guidance(guidance_config(self.values, self.mixer_config))
+        on_parameter_change(self, self._apply_parameters)
+        self.create_subscription(PointStamped, "dock/target", self._on_target, 10)
+        self.create_subscription(Imu, "vehicle/imu", self._on_imu, 10)
+        self.create_subscription(Float64, "vehicle/depth", self._on_depth, 10)
+        self.create_subscription(Bool, "vehicle/docked", self._on_docked, 10)
+        self.create_subscription(Bool, "dock/detected", self._on_detected, 10)
+        self.command_pub = self.create_publisher(UInt16MultiArray, "thrusters/command", 10)
+        self.demands_pub = self.create_publisher(Vector3Stamped, "guidance/demands", 10)
+        self.setpoint_pub = self.create_publisher(Vector3Stamped, "guidance/setpoint", 10)
+        self.state_pub = self.create_publisher(String, "guidance/state", 10)
+        latched = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self.transition_pub = self.create_publisher(String, "guidance/transition", latched)
+        self.create_timer(1.0 / self.values["control_rate_hz"], self._on_timer)
+        self.create_timer(1.0, self._publish_state)
+        self._attitude = None
+        self._depth = 0.0
+        self._docked = False
+        self._layout = [MultiArrayDimension(label=name, size=1, stride=1) for name in self.mixer_config.names]
+
+    def _apply_parameters(self, changes: dict[str, Any]) -> str | None:
+        values = {**self.values, **changes}
+        try:
+            config = guidance_config(values, self.mixer_config)
+        except DockGuidanceError as exc:
+            return str(exc)
+        self.values = values
+        self.guidance.reconfigure(config)
+        return None
+
+    def _on_imu(self, msg: Imu) -> None:
+        self._attitude = imu_to_attitude(msg, self._depth)
+
+    def _on_depth(self, msg: Float64) -> None:
+        if math.isfinite(msg.data):
+            self._depth = msg.data
+
+    def _on_docked(self, msg: Bool) -> None:
+        self._docked = msg.data
+
+    def _on_detected(self, msg: Bool) -> None:
+        if not msg.data:
+            self.guidance.marker_missed()
+
+    def _on_target(self, msg: PointStamped) -> None:
+        p = msg.point
+        target = Target(stamp_seconds(msg.header.stamp), p.z, p.x, p.y)
+        if not target.is_valid():
+            self.get_logger().warn(f"invalid target ignored: {p.x}, {p.y}, {p.z}", throttle_duration_sec=5.0)
+            return
+        self._step(target)
+
+    def _on_timer(self) -> None:
+        self._step(None)
+
+    def _step(self, target: Target | None) -> None:
+        now = self.get_clock().now().nanoseconds * 1e-9
+        out = self.guidance.update(now, target, self._attitude, self._docked)
+        if out.transition is not None:
+            t = out.transition
+            line = f"{t.previous.value} -> {t.state.value}: {t.reason}"
+            self.get_logger().info(line)
+            self.transition_pub.publish(String(data=line))
+            self._publish_state()
+        self._publish(out, target.stamp_s if target is not None else now)
+
+    def _publish(self, out: GuidanceOutput, stamp_s: float) -> None:
+        stamp = seconds_stamp(stamp_s)
+        if out.demands is not None:
+            d = out.demands
+            setpoint = Vector3Stamped()
+            setpoint.header.stamp = stamp
+            setpoint.vector.x, setpoint.vector.y, setpoint.vector.z = d.yaw_setpoint_rad, d.pitch_setpoint_rad, d.speed_setpoint_mps
+            self.setpoint_pub.publish(setpoint)
+            demands = Vector3Stamped()
+            demands.header.stamp = stamp
+            demands.vector.x, demands.vector.y, demands.vector.z = d.surge, d.yaw, d.pitch
+            self.demands_pub.publish(demands)
+        command = UInt16MultiArray()
+        command.layout.dim = self._layout
+        command.data = list(out.command.pwm_us)
+        self.command_pub.publish(command)
+
+    def _publish_state(self) -> None:
+        self.state_pub.publish(String(data=self.guidance.state.value))
+
+
+def main(args: list[str] | None = None) -> int:
+    return run_node(GuidanceNode, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

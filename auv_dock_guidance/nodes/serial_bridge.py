@@ -1,0 +1,198 @@
+"""serial_bridge node: thruster commands to the main controller, its telemetry back; owns the failsafe.
+
+Subscribes  thrusters/command (std_msgs/UInt16MultiArray, link_type serial),
+            guidance/demands (geometry_msgs/Vector3Stamped, link_type mavlink),
+            guidance/setpoint (geometry_msgs/Vector3Stamped: its stamp times the latency)
+Publishes   vehicle/imu (sensor_msgs/Imu, REP 103), vehicle/depth (std_msgs/Float64),
+            vehicle/armed (std_msgs/Bool), vehicle/docked (std_msgs/Bool),
+            bridge/latency (std_msgs/Float64: camera frame -> command on the wire, s),
+            /diagnostics (1 Hz: link health, failsafe events, CRC errors)
+Service     bridge/arm (std_srvs/SetBool)
+Only the guidance node's topic drives the thrusters, and only while armed; with no fresh
+command for failsafe_timeout_s the bridge sends neutral on every tick.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import Vector3Stamped
+from rclpy.node import Node
+from sensor_msgs.msg import Imu
+from std_msgs.msg import Bool, Float64, UInt16MultiArray
+from std_srvs.srv import SetBool
+
+from auv_dock_guidance.control.cascade import Attitude
+from auv_dock_guidance.control.mixer import MixerConfig
+from auv_dock_guidance.errors import ConfigError
+from auv_dock_guidance.link.bridge import LinkBridge
+from auv_dock_guidance.link.protocol import Status, TelemetryMsg
+from auv_dock_guidance.link.transport import SerialTransport
+from auv_dock_guidance.nodes.common import Param, declare, on_parameter_change, run_node
+from auv_dock_guidance.nodes.conversions import attitude_to_imu, stamp_seconds
+
+PARAMS = [
+    Param("port", "/dev/ttyUSB0", "serial device of the main controller", read_only=True),
+    Param("baudrate", 115200, "serial speed", 1200, 4000000, read_only=True),
+    Param("link_type", "serial", "serial (this package's protocol) or mavlink (ArduSub)", read_only=True),
+    Param("thrusters_file", "", "thruster YAML for the PWM limits (empty: defaults)", read_only=True),
+    Param("failsafe_timeout_s", 0.2, "no command this long: neutral (s)", 0.02, 5.0),
+    Param("tick_rate_hz", 50.0, "failsafe, heartbeat and telemetry rate (Hz)", 10.0, 1000.0, read_only=True),
+    Param("arm_on_start", False, "arm at start (the demo); on a vehicle arm through the bridge/arm service"),
+    Param("imu_frame_id", "base_link", "frame_id of the published Imu", read_only=True),
+]
+
+
+class SerialBridgeNode(Node):
+    def __init__(self) -> None:
+        super().__init__("serial_bridge")
+        self.values = declare(self, PARAMS)
+        if self.values["link_type"] not in ("serial", "mavlink"):
+            raise ConfigError(f"link_type {self.values['link_type']!r} must be 'serial' or 'mavlink'")
+        path = self.values["thrusters_file"]
+        pwm = (MixerConfig.from_yaml(path) if path else MixerConfig()).pwm
+        self.transport = SerialTransport(self.values["port"], self.values["baudrate"])
+        self.bridge = LinkBridge(self.transport, pwm, self.values["failsafe_timeout_s"])
+        self.mavlink = None
+        if self.values["link_type"] == "mavlink":
+            from auv_dock_guidance.link.mavlink import MavlinkCodec
+
+            self.mavlink = MavlinkCodec()
+            self.create_subscription(Vector3Stamped, "guidance/demands", self._on_demands, 10)
+        else:
+            self.create_subscription(UInt16MultiArray, "thrusters/command", self._on_command, 10)
+        on_parameter_change(self, self._apply_parameters)
+        self.create_subscription(Vector3Stamped, "guidance/setpoint", self._on_setpoint, 10)
+        self.imu_pub = self.create_publisher(Imu, "vehicle/imu", 10)
+        self.depth_pub = self.create_publisher(Float64, "vehicle/depth", 10)
+        self.armed_pub = self.create_publisher(Bool, "vehicle/armed", 10)
+        self.docked_pub = self.create_publisher(Bool, "vehicle/docked", 10)
+        self.latency_pub = self.create_publisher(Float64, "bridge/latency", 50)
+        self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.create_service(SetBool, "bridge/arm", self._on_arm)
+        self.create_timer(1.0 / self.values["tick_rate_hz"], self._on_tick)
+        self.create_timer(1.0, self._publish_diagnostics)
+        self._frame_stamp: float | None = None  # camera frame behind the newest setpoint
+        self._timed_stamp: float | None = None
+        self._last_telemetry_seq: int | None = None
+        self._connected = False
+        if self.values["arm_on_start"]:
+            self._set_armed(True, "arm_on_start")
+
+    def close(self) -> None:
+        """Leave the thrusters neutral and the port closed on shutdown."""
+        self.bridge.set_armed(False)
+        self.transport.close()
+
+    def _apply_parameters(self, changes: dict[str, Any]) -> str | None:
+        if "failsafe_timeout_s" in changes:
+            self.bridge.failsafe_timeout_s = float(changes["failsafe_timeout_s"])
+        if "arm_on_start" in changes:
+            return "arm_on_start only applies at start; use the bridge/arm service"
+        return None
+
+    def _set_armed(self, armed: bool, why: str) -> None:
+        if armed != self.bridge.armed:
+            self.get_logger().info(f"{'armed' if armed else 'disarmed'} ({why})")
+        if self.mavlink is None:
+            self.bridge.set_armed(armed)
+        else:
+            self.bridge.armed = armed
+            self.transport.write(self.mavlink.neutral())
+
+    def _on_arm(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
+        self._set_armed(request.data, "bridge/arm service")
+        response.success, response.message = True, "armed" if request.data else "disarmed"
+        return response
+
+    def _on_setpoint(self, msg: Vector3Stamped) -> None:
+        self._frame_stamp = stamp_seconds(msg.header.stamp)
+
+    def _on_command(self, msg: UInt16MultiArray) -> None:
+        if len(msg.data) != 4:
+            self.get_logger().error(f"thruster command with {len(msg.data)} values ignored (need 4)",
+                                    throttle_duration_sec=5.0)
+            return
+        self.bridge.command([float(x) for x in msg.data])
+        self._record_latency()
+
+    def _on_demands(self, msg: Vector3Stamped) -> None:
+        assert self.mavlink is not None
+        v = msg.vector
+        self.bridge.command([1500.0] * 4)  # keeps the failsafe clock; the pulses go out as RC override
+        if self.bridge.armed:
+            self.transport.write(self.mavlink.rc_override(v.x, v.y, v.z))
+        self._record_latency()
+
+    def _record_latency(self) -> None:
+        stamp = self._frame_stamp
+        if stamp is not None and stamp != self._timed_stamp and self.bridge.armed:
+            self._timed_stamp = stamp
+            self.latency_pub.publish(Float64(data=time.time() - stamp))
+
+    def _on_tick(self) -> None:
+        if self.mavlink is not None:
+            self._tick_mavlink()
+            return
+        self.bridge.tick()
+        if self.transport.connected != self._connected:
+            self._connected = self.transport.connected
+            self.get_logger().info(f"serial port {self.transport.port} {'open' if self._connected else 'lost'}")
+        telemetry = self.bridge.telemetry
+        if telemetry is not None and self.bridge.telemetry_time is not None and telemetry.time_ms != self._last_telemetry_seq:
+            self._last_telemetry_seq = telemetry.time_ms
+            self._publish_telemetry(telemetry)
+
+    def _tick_mavlink(self) -> None:
+        assert self.mavlink is not None
+        stale = time.monotonic() - self.bridge.last_command_time > self.bridge.failsafe_timeout_s
+        if not self.bridge.armed or stale:
+            self.transport.write(self.mavlink.neutral())
+        state = self.mavlink.feed(self.transport.read())
+        if math.isfinite(state.yaw):
+            now = time.time()
+            attitude = Attitude(now, state.roll, state.pitch, state.yaw, state.depth if math.isfinite(state.depth) else 0.0)
+            self.imu_pub.publish(attitude_to_imu(attitude, (state.roll_rate, state.pitch_rate, state.yaw_rate),
+                                                 self.values["imu_frame_id"]))
+
+    def _publish_telemetry(self, t: TelemetryMsg) -> None:
+        now = time.time()
+        attitude = Attitude(now, t.roll, t.pitch, t.yaw, t.depth)
+        self.imu_pub.publish(attitude_to_imu(attitude, (t.roll_rate, t.pitch_rate, t.yaw_rate), self.values["imu_frame_id"]))
+        self.depth_pub.publish(Float64(data=float(t.depth)))
+        self.armed_pub.publish(Bool(data=bool(t.status & Status.ARMED)))
+        self.docked_pub.publish(Bool(data=bool(t.status & Status.DOCKED)))
+
+    def _publish_diagnostics(self) -> None:
+        s, d, ts = self.bridge.stats, self.bridge.decoder.stats, self.transport.stats
+        age = time.monotonic() - self.bridge.telemetry_time if self.bridge.telemetry_time is not None else math.inf
+        status = DiagnosticStatus(name="auv_dock_guidance: serial_bridge", hardware_id=self.transport.port)
+        if not self.transport.connected:
+            status.level, status.message = DiagnosticStatus.ERROR, "serial port not open"
+        elif age > 0.5:
+            status.level, status.message = DiagnosticStatus.WARN, "no telemetry from the main controller"
+        else:
+            status.level = DiagnosticStatus.OK
+            status.message = "armed" if self.bridge.armed else "disarmed"
+        status.values = [KeyValue(key=k, value=str(v)) for k, v in (
+            ("armed", self.bridge.armed), ("in_failsafe", self.bridge.in_failsafe),
+            ("failsafe_events", s.failsafe_events), ("commands_sent", s.commands_sent),
+            ("rejected_values", s.rejected_values), ("frames_received", d.frames), ("crc_errors", d.crc_errors),
+            ("bytes_dropped", d.bytes_dropped), ("reconnects", max(0, ts.opens - 1)),
+            ("telemetry_age_s", f"{age:.3f}"),
+        )]
+        array = DiagnosticArray()
+        array.header.stamp = self.get_clock().now().to_msg()
+        array.status = [status]
+        self.diag_pub.publish(array)
+
+
+def main(args: list[str] | None = None) -> int:
+    return run_node(SerialBridgeNode, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

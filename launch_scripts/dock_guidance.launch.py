@@ -1,0 +1,35 @@
+"""ros2 launch auv_dock_guidance dock_guidance.launch.py [port:=/dev/ttyUSB0] [source:=device] [path:=0]
+
+The four nodes with config/dock_guidance.yaml, on a real ROS 2 install. On a machine with
+only the PyPI wheels, `auv-dock run` starts the same set from the same file.
+"""
+
+import os
+
+from ament_index_python.packages import get_package_share_directory
+from launch import LaunchDescription
+from launch.actions import DeclareLaunchArgument, SetEnvironmentVariable
+from launch.substitutions import LaunchConfiguration
+from launch_ros.actions import Node
+
+
+def generate_launch_description():
+    config = os.path.join(get_package_share_directory("auv_dock_guidance"), "config")
+    params = os.path.join(config, "dock_guidance.yaml")
+    port = LaunchConfiguration("port")
+    source = LaunchConfiguration("source")
+    path = LaunchConfiguration("path")
+    return LaunchDescription([
+        DeclareLaunchArgument("port", default_value="/dev/ttyUSB0", description="main controller serial port"),
+        DeclareLaunchArgument("source", default_value="device", description="device | video | folder | sim"),
+        DeclareLaunchArgument("path", default_value="0", description="camera index/path, video or folder"),
+        SetEnvironmentVariable("FASTRTPS_DEFAULT_PROFILES_FILE", os.path.join(config, "fastdds_shm.xml")),
+        Node(package="auv_dock_guidance", executable="dock_camera_ingest", name="camera_ingest",
+             parameters=[params, {"source": source, "path": path}], output="screen"),
+        Node(package="auv_dock_guidance", executable="dock_detector", name="detector",
+             parameters=[params], output="screen"),
+        Node(package="auv_dock_guidance", executable="dock_guidance", name="guidance",
+             parameters=[params], output="screen"),
+        Node(package="auv_dock_guidance", executable="dock_serial_bridge", name="serial_bridge",
+             parameters=[params, {"port": port}], output="screen"),
+    ])
