@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from auv_dock_guidance import __version__
-from auv_dock_guidance.cli import calibrate, demo, detect, evaluate, link, run
+from auv_dock_guidance.cli import bench, calibrate, demo, detect, evaluate, link, run
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -23,6 +23,7 @@ def build_parser() -> argparse.ArgumentParser:
     link.add_parsers(subparsers)
     calibrate.add_parsers(subparsers)
     run.add_parser(subparsers)
+    bench.add_parser(subparsers)
     return parser
 
 

@@ -30,6 +30,7 @@ from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
 from auv_dock_guidance.vision.image_input import read_image
 
 IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"}
+MAX_CACHED_FRAMES = 64  # about 400 MB of 1080p frames
 
 PARAMS = [
     Param("source", "sim", "device, video, folder or sim", read_only=True),
@@ -63,6 +64,7 @@ class CameraIngestNode(Node):
         self._stalled = False
         self._capture = None
         self._files: list[Path] = []
+        self._decoded: dict[Path, np.ndarray] = {}
         self._index = 0
         self._pose: VehiclePose | None = None
         if source == "sim":
@@ -108,12 +110,17 @@ class CameraIngestNode(Node):
                 self._index = 0
             path = self._files[self._index]
             self._index += 1
+            if path in self._decoded:
+                return self._decoded[path]
             try:
-                return read_image(path)
+                frame = read_image(path)
             except DockGuidanceError as exc:
                 self.failures += 1
                 self.get_logger().error(f"skipped {exc}", throttle_duration_sec=5.0)
                 return None
+            if self.values["loop"] and len(self._decoded) < MAX_CACHED_FRAMES:
+                self._decoded[path] = frame  # a looping folder is decoded once, not at every pass
+            return frame
         assert self._capture is not None
         ok, frame = self._capture.read()
         if not ok:

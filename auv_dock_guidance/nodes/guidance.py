@@ -140,7 +140,9 @@ class GuidanceNode(Node):
             self.get_logger().info(line)
             self.transition_pub.publish(String(data=line))
             self._publish_state()
-        self._publish(out, target.stamp_s if target is not None else now)
+        last = self.guidance.last_target
+        # Stamp with the camera frame behind the command, so the bridge can time frame -> wire.
+        self._publish(out, target.stamp_s if target is not None else (last.stamp_s if last else now))
 
     def _publish(self, out: GuidanceOutput, stamp_s: float) -> None:
         stamp = seconds_stamp(stamp_s)
