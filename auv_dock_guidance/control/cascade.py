@@ -71,7 +71,7 @@ class CascadeConfig:
     cruise_speed_mps: float = 0.41
     terminal_speed_mps: float = 0.25
     slow_down_range_m: float = 5.0  # speed falls linearly from cruise to terminal below this
-    full_thrust_speed_mps: float = 1.2  # steady speed at full surge thrust
+    full_thrust_speed_mps: float = 1.0  # steady speed at full surge thrust
 
     def __post_init__(self) -> None:
         positive = (self.setpoint_rate_rad_s, self.max_pitch_setpoint_rad, self.full_thrust_speed_mps, self.slow_down_range_m)

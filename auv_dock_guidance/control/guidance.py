@@ -8,7 +8,9 @@ States:
   steers towards it at the scheduled speed.
 * TERMINAL: close range (below ``terminal_range_m``). The ring fills the frame or leaves
   it, so a lost marker is expected: the last good attitude goal is held, turns stay rate
-  limited, and the vehicle keeps going at terminal speed. Lost while still farther than
+  limited, and the vehicle keeps going at terminal speed. Detections closer than
+  ``blind_range_m`` or jumping more than ``terminal_max_bearing_jump_rad`` from the last
+  good one (a partial ring) are not acted on. Lost while still farther than
   ``blind_range_m`` (where it should be in view) for ``terminal_lost_timeout_s``: ABORT.
 * DOCKED: the main controller reports the latch, or in TERMINAL the dead-reckoned run
   since the last sighting covers the last range plus a margin.
@@ -48,6 +50,7 @@ class GuidanceConfig:
     blind_range_m: float = 1.5  # below this the ring is expected to leave the frame: go on blind
     terminal_lost_timeout_s: float = 3.0  # lost this long in TERMINAL while farther than blind_range_m -> ABORT
     search_timeout_s: float = 120.0  # SEARCH this long -> ABORT
+    terminal_max_bearing_jump_rad: float = math.radians(4)  # larger jumps between frames in TERMINAL are ignored
     dock_margin_m: float = 0.3  # dead-reckoned run past the last range that counts as docked
     telemetry_timeout_s: float = 0.5
     detection_max_age_s: float = 0.5  # an older detection is not acted on
@@ -107,9 +110,21 @@ class Guidance:
         self.cascade.reset()
         self._since = None  # time the current state began
         self._streak = 0
-        self._last_target: Target | None = None
+        self._last_target: Target | None = None  # the last detection steered by
+        self._last_seen_s: float | None = None  # the last detection of any kind
         self._last_time: float | None = None
         self._run_since_sighting = 0.0
+
+    def _plausible_in_terminal(self, target: Target) -> bool:
+        """Close in, the ring leaves the frame and a partial ring gives a wild bearing: ignore those."""
+        c = self.config
+        if target.range_m < c.blind_range_m:
+            return False
+        last = self._last_target
+        if last is None:
+            return True
+        jump = max(abs(target.bearing_yaw_rad - last.bearing_yaw_rad), abs(target.bearing_pitch_rad - last.bearing_pitch_rad))
+        return jump <= c.terminal_max_bearing_jump_rad
 
     def marker_missed(self) -> None:
         """A camera frame came without the marker: confirmation starts again."""
@@ -130,6 +145,10 @@ class Guidance:
             self._since = now_s
         if target is not None and (not target.is_valid() or now_s - target.stamp_s > c.detection_max_age_s):
             target = None
+        if target is not None:
+            self._last_seen_s = now_s
+        if target is not None and self.state is State.TERMINAL and not self._plausible_in_terminal(target):
+            target = None  # seen, but a partial ring: hold the last good goal
         if attitude is not None and (not attitude.is_valid() or now_s - attitude.stamp_s > c.telemetry_timeout_s):
             attitude = None
         transition = self._next_state(now_s, target, attitude, docked_signal)
@@ -157,8 +176,7 @@ class Guidance:
         previous = self.state
         if target is not None:
             self._streak += 1
-        last_seen = self._last_target.stamp_s if self._last_target else None
-        lost_for = now_s - last_seen if last_seen is not None else math.inf
+        lost_for = now_s - self._last_seen_s if self._last_seen_s is not None else math.inf
         if target is not None:
             lost_for = 0.0
         elif lost_for > c.track_lost_timeout_s:
@@ -193,9 +211,10 @@ class Guidance:
             if target is None and self._run_since_sighting >= last_range + c.dock_margin_m:
                 new_state = State.DOCKED
                 reason = f"ran {self._run_since_sighting:.2f} m past the last sighting at {last_range:.2f} m"
-            elif lost_for > c.terminal_lost_timeout_s and last_range > c.blind_range_m:
+            elif lost_for > c.terminal_lost_timeout_s and last_range - self._run_since_sighting > c.blind_range_m:
                 new_state = State.ABORT
-                reason = f"marker lost for {lost_for:.1f} s at {last_range:.2f} m, where it should be in view"
+                reason = (f"marker lost for {lost_for:.1f} s about {last_range - self._run_since_sighting:.2f} m "
+                          "out, where it should be in view")
         if new_state is previous or reason is None:
             return None
         self.state = new_state

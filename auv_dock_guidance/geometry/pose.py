@@ -156,6 +156,7 @@ def ring_center_solution(
     inner: Ellipse | None = None,
     cue_noise: float = 0.0,
     led_points: np.ndarray | None = None,
+    prior_margin_deg: float = 10.0,
 ) -> tuple[np.ndarray, np.ndarray | None] | None:
     """The ring's 3-D centre (and axis when it can be told) from its image.
 
@@ -164,8 +165,10 @@ def ring_center_solution(
     further towards the near side than the inner one's. When that cue is clear, the
     solution whose centre correction points away from the near side is returned with its
     axis. When it is not (no inner outline, a scalloped outline of discrete LEDs, a ring
-    nearly head-on), the midpoint of the two solutions is returned without an axis: its
-    error is half the worst case of a guess. ``cue_noise`` is the standard error of the
+    nearly head-on), the solution whose axis is nearer the optical axis is taken if the two
+    differ in that by more than ``prior_margin_deg`` (a docking vehicle heads along the
+    dock's axis); otherwise the midpoint of the two is returned without an axis: its error
+    is half the worst case of a guess. ``cue_noise`` is the standard error of the
     outlines' centre offset (normalized units); the cue must stand 3 of them clear.
     For a ring of separate, evenly spaced LEDs, ``led_points`` (their image centres on the
     normalized plane) give a stronger cue: only on the true solution's plane are they
@@ -193,6 +196,12 @@ def ring_center_solution(
         separation = float(np.linalg.norm(predicted[0] - predicted[1]))
         if misfit[best] <= 0.35 * separation and misfit[1 - best] - misfit[best] >= 3.0 * cue_noise:
             return solutions[best].center_m, solutions[best].normal
+    # A docking vehicle heads along the dock's axis: the true axis is the one nearer the
+    # optical axis, when the two differ clearly in that.
+    off_axis = [math.acos(float(np.clip(-sol.normal[2], -1.0, 1.0))) for sol in solutions]
+    if abs(off_axis[0] - off_axis[1]) > math.radians(prior_margin_deg):
+        chosen = solutions[int(np.argmin(off_axis))]
+        return chosen.center_m, chosen.normal
     return 0.5 * (solutions[0].center_m + solutions[1].center_m), None
 
 

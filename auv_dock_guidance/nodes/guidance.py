@@ -43,7 +43,7 @@ PARAMS = [
     Param("telemetry_timeout_s", 0.5, "telemetry older than this: abort (s)", 0.05, 10.0),
     Param("cruise_speed_mps", 0.41, "approach speed (m/s)", 0.0, 3.0),
     Param("terminal_speed_mps", 0.25, "speed in the terminal phase (m/s)", 0.0, 3.0),
-    Param("full_thrust_speed_mps", 1.2, "steady speed at full surge thrust (m/s)", 0.1, 5.0),
+    Param("full_thrust_speed_mps", 1.0, "steady speed at full surge thrust (m/s)", 0.1, 5.0),
     Param("outer.kp", 0.12, "outer loop: rad of turn per metre of offset", 0.0, 5.0),
     Param("outer.ki", 0.01, "outer loop integral gain", 0.0, 5.0),
     Param("inner.kp", 1.5, "inner loop: moment per rad of attitude error", 0.0, 50.0),

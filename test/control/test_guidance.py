@@ -1,7 +1,7 @@
 import math
 
 from auv_dock_guidance.control.cascade import Attitude, Target
-from auv_dock_guidance.control.guidance import Guidance, State
+from auv_dock_guidance.control.guidance import Guidance, GuidanceConfig, State
 from auv_dock_guidance.sim.main_controller import SimpleVehicle
 
 PU, SU, PL, SL = range(4)
@@ -98,8 +98,8 @@ def test_yaw_converges_on_the_bearing_in_closed_loop():
 
 
 def test_marker_lost_in_terminal_while_it_should_be_visible_aborts():
-    g = Guidance()
-    run(g, 1.0, lambda t: target(t, range_m=2.2))
+    g = Guidance(GuidanceConfig(terminal_lost_timeout_s=1.0))
+    run(g, 1.0, lambda t: target(t, range_m=2.4))
     outs = run(g, 5.0, lambda t: None, start=1.0)
     aborted = [o for o in outs if o.transition and o.transition.state is State.ABORT]
     assert aborted and "should be in view" in aborted[0].transition.reason
