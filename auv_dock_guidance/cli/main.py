@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from auv_dock_guidance import __version__
-from auv_dock_guidance.cli import bench, calibrate, demo, detect, evaluate, link, run
+from auv_dock_guidance.cli import bench, calibrate, demo, detect, evaluate, link, run, simulate
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -24,6 +24,7 @@ def build_parser() -> argparse.ArgumentParser:
     calibrate.add_parsers(subparsers)
     run.add_parser(subparsers)
     bench.add_parser(subparsers)
+    simulate.add_parser(subparsers)
     return parser
 
 

@@ -155,7 +155,7 @@ def run_episode(config: EpisodeConfig, seed: int) -> EpisodeResult:
     result.time_s = t
     result.frames = frame
     result.max_detection_range_m = max_range or None
-    if not result.success and result.reason in ("missed", "lost_marker") and result.reflection_frames > frame / 4:
+    if not result.success and result.reason != "timeout" and result.reflection_frames > frame / 4:
         result.reason = "chose_reflection"
     return result
 

@@ -163,15 +163,17 @@ def _draw_ring(
     pix, valid = camera.project(pts)
     radiance = spec.brightness * gain * math.exp(-spec.attenuation_per_m * distance)
     width_px = camera.focal_px * spec.strip_width_m / center[2]
-    # A strip narrower than a pixel spreads its light over one pixel: dimmer, not thinner.
-    value = radiance * min(1.0, width_px)
+    thickness = max(1, int(round(width_px)))
+    # Thin strips are drawn as lines carrying the same light per unit length as the strip:
+    # narrower than a pixel, they come out dimmer, not thinner.
+    value = radiance * width_px / thickness
     if spec.led_count > 0:
         for (u, v), ok in zip(pix, valid):
             if ok:
-                _draw_disc(light, u, v, max(0.7, width_px * 0.6), value)
+                _draw_disc(light, u, v, max(0.7, width_px * 0.6), radiance * min(1.0, width_px))
         return
     layer = np.zeros(light.shape, np.uint8)
-    if valid.all() and width_px >= 1.0 and ripple == 0.0:
+    if valid.all() and width_px >= 3.0 and ripple == 0.0:
         # The strip is the annulus between two concentric 3-D circles, projected exactly:
         # its near side comes out wider than its far side, as through a real lens.
         half = 0.5 * spec.strip_width_m
@@ -181,9 +183,8 @@ def _draw_ring(
         cv2.fillPoly(layer, [np.round(inner * _SCALE).astype(np.int32)], 0, cv2.LINE_AA, _SHIFT)
         light += layer.astype(np.float32) * (radiance / 255.0)
         return
-    # A sub-pixel strip, a rippled reflection, or a ring partly beyond the lens model's fold
-    # or behind the camera: a polyline through the valid runs (never a chord across the image).
-    thickness = max(1, int(round(width_px)))
+    # A thin strip, a rippled reflection, or a ring partly beyond the lens model's fold or
+    # behind the camera: a polyline through the valid runs (never a chord across the image).
     for run in _valid_runs(valid):
         if np.any(np.abs(pix[run]) > 1e6):
             continue

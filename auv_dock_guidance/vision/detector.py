@@ -219,14 +219,16 @@ class Detector:
         contrast = peak - background
         edges = improved_canny(gray, c.canny_low * contrast, c.canny_high * contrast, smoothed=smooth)
         near_edge = cv2.dilate(edges, np.ones((5, 5), np.uint8))
-        # Close small gaps first; a faint ring that noise broke into pieces gets a wider
-        # closing, scaled to its size, only when the narrow one found nothing.
-        wide = int(0.1 * radius_estimate * scale) | 1
+        # Close small gaps first; a faint ring that noise broke into arcs gets a wider
+        # closing, scaled to its size, when the narrow one found no ring.
+        wide = max(5, int(0.2 * radius_estimate * scale)) | 1
         regions: list[_Region] = []
         for close in (3, wide) if wide > 3 else (3,):
             closed = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (close, close)))
-            regions = self._regions(closed, near_edge, scale, x0, y0, level, rejected)
-            if regions:
+            found = self._regions(closed, near_edge, scale, x0, y0, level, rejected)
+            if any(is_ring(r.shape, c.selection) for r in found) or not regions:
+                regions = found
+            if any(is_ring(r.shape, c.selection) for r in regions):
                 break
         return regions
 

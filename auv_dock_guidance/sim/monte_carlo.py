@@ -1,0 +1,118 @@
+"""Many docking runs, their statistics, and the plots people look at."""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from auv_dock_guidance.sim.closed_loop import EpisodeConfig, EpisodeResult, run_episode
+
+
+def _run(args: tuple[EpisodeConfig, int]) -> EpisodeResult:
+    return run_episode(*args)
+
+
+def run_many(
+    config: EpisodeConfig, episodes: int, seed: int, workers: int = 1,
+    progress: Callable[[int, int], None] | None = None,
+) -> list[EpisodeResult]:
+    """Episodes seed, seed + 1, ... (each reproducible on its own), in parallel processes."""
+    jobs = [(config, seed + i) for i in range(episodes)]
+    results: list[EpisodeResult] = []
+    if workers <= 1:
+        for job in jobs:
+            results.append(_run(job))
+            if progress:
+                progress(len(results), episodes)
+        return results
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        for result in pool.map(_run, jobs):
+            results.append(result)
+            if progress:
+                progress(len(results), episodes)
+    return results
+
+
+def wilson_interval(successes: int, trials: int, z: float = 1.96) -> tuple[float, float]:
+    """95 % confidence interval of a success rate (Wilson score; sane at 0 % and 100 %)."""
+    if trials == 0:
+        return (0.0, 1.0)
+    p = successes / trials
+    centre = (p + z * z / (2 * trials)) / (1 + z * z / trials)
+    half = z * math.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials)) / (1 + z * z / trials)
+    return (max(0.0, centre - half), min(1.0, centre + half))
+
+
+def summarize(results: list[EpisodeResult]) -> dict[str, object]:
+    n = len(results)
+    ok = [r for r in results if r.success]
+    lateral = [r.entry_lateral_error_m for r in results if r.entry_lateral_error_m is not None]
+    heading = [r.entry_heading_error_deg for r in results if r.entry_heading_error_deg is not None]
+    ranges = [r.max_detection_range_m for r in results if r.max_detection_range_m]
+    low, high = wilson_interval(len(ok), n)
+    return {
+        "episodes": n,
+        "successes": len(ok),
+        "success_rate": len(ok) / n if n else None,
+        "success_ci95": [low, high],
+        "failures": dict(Counter(r.reason for r in results if not r.success)),
+        "docking_time_s_median": float(np.median([r.time_s for r in ok])) if ok else None,
+        "entry_lateral_error_m_p50": float(np.percentile(lateral, 50)) if lateral else None,
+        "entry_lateral_error_m_p95": float(np.percentile(lateral, 95)) if lateral else None,
+        "entry_heading_error_deg_p50": float(np.percentile(heading, 50)) if heading else None,
+        "entry_heading_error_deg_p95": float(np.percentile(heading, 95)) if heading else None,
+        "max_detection_range_m": max(ranges) if ranges else None,
+        "failed_seeds": [r.seed for r in results if not r.success],
+    }
+
+
+def plot(results: list[EpisodeResult], folder: Path, dock_x: float = 28.0, dock_depth: float = 2.0,
+         entrance_radius: float = 0.35, title: str = "") -> list[Path]:
+    """Top and side views of every trajectory, and the bearing errors over time, as PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for view, (index, label, dock_value) in {"top": (2, "y (m, left +)", 0.0),
+                                              "side": (3, "z (m, up +)", -dock_depth)}.items():
+        fig, ax = plt.subplots(figsize=(9, 3.6))
+        for r in results:
+            track = np.array([(p[1], p[index]) for p in r.trajectory])
+            if len(track):
+                ax.plot(track[:, 0], track[:, 1], color="tab:green" if r.success else "tab:red", lw=0.8, alpha=0.7)
+        ax.plot([dock_x, dock_x], [dock_value - entrance_radius, dock_value + entrance_radius], color="k", lw=3)
+        ax.set_xlabel("x along the pool (m)")
+        ax.set_ylabel(label)
+        ax.set_title(f"{title} {view} view: green docked, red failed".strip())
+        ax.grid(alpha=0.3)
+        fig.tight_layout()
+        path = folder / f"trajectories_{view}.png"
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        paths.append(path)
+    fig, axes = plt.subplots(2, 1, figsize=(9, 5), sharex=True)
+    for r in results:
+        if r.bearing_errors:
+            b = np.array(r.bearing_errors)
+            axes[0].plot(b[:, 0], b[:, 1], lw=0.6, alpha=0.6)
+            axes[1].plot(b[:, 0], b[:, 2], lw=0.6, alpha=0.6)
+    axes[0].set_ylabel("yaw bearing (deg)")
+    axes[1].set_ylabel("pitch bearing (deg)")
+    axes[1].set_xlabel("time (s)")
+    axes[0].set_title(f"{title} bearing to the dock as the camera saw it".strip())
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    path = folder / "bearing_errors.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    paths.append(path)
+    return paths
