@@ -1,77 +1,137 @@
-"""`auv-dock demo`: the main job. For now, detection along a rendered approach sequence."""
+"""`auv-dock demo`: the main job. The whole system as real ROS 2 nodes on a simulated vehicle.
+
+This process is the simulator: the vehicle dynamics behind a simulated main controller on
+a pseudo-terminal, and the vehicle pose on ``sim/vehicle_pose``. camera_ingest renders
+what the camera sees from that pose; detector, guidance and serial_bridge run as on the
+vehicle. The run ends when the nose crosses the dock's entrance plane (or on a failure),
+and leaves a report folder: a plot, a JSON summary and an MCAP bag of the debug topics.
+"""
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
+import os
+import random
+import time
+from datetime import datetime
+from pathlib import Path
 
-import numpy as np
-
-from auv_dock_guidance.cli.common import positive_int
-from auv_dock_guidance.cli.progress import Progress
-from auv_dock_guidance.geometry.camera import paper_camera
-from auv_dock_guidance.sim.scene import SceneSpec, render
-from auv_dock_guidance.vision.detector import Detector
+from auv_dock_guidance.cli.common import fail
+from auv_dock_guidance.launcher import NodeGroup, ros_environment
+from auv_dock_guidance.sim.closed_loop import EpisodeResult, entry_outcome
+from auv_dock_guidance.sim.main_controller import MainControllerSim
+from auv_dock_guidance.sim.monte_carlo import plot
+from auv_dock_guidance.sim.vehicle import AuvDynamics
+from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "demo",
-        help="the main job: the pipeline on a simulated docking approach",
-        description="Render an approach from 15 m to 2 m with a surface reflection overhead and "
-        "run the detector on every frame as one sequence; print what it saw.",
+        help="the main job: all nodes docking a simulated vehicle, with a report folder",
+        description="Run camera_ingest, detector, guidance and serial_bridge as ROS 2 processes "
+        "against a simulated vehicle and main controller in the paper's pool, 12 m out, 1 m to "
+        "the side and 0.5 m above the dock, with the surface reflecting the ring.",
     )
-    p.add_argument("--frames", type=positive_int, default=60, help="frames along the approach (default %(default)s)")
+    p.add_argument("--scenario", choices=["clear", "reflection"], default="reflection")
+    p.add_argument("--report", metavar="DIR", help="report folder (default reports/demo-<time>)")
+    p.add_argument("--timeout", type=float, default=100.0, help="give up after this many seconds")
     p.set_defaults(run=run)
 
 
-def approach_scenes(frames: int, seed: int = 0) -> list[SceneSpec]:
-    """A straight approach from 15 m to 2 m, drifting in from 1 m lateral and 0.5 m vertical offset."""
-    rng = np.random.default_rng(seed)
-    specs = []
-    for i in range(frames):
-        t = i / max(frames - 1, 1)
-        z = 15.0 - 13.0 * t
-        specs.append(
-            SceneSpec(
-                marker_center_m=(1.0 * (1 - t) ** 2, 0.5 * (1 - t) ** 2, z),
-                marker_normal=(0.1 * (1 - t), 0.0, -1.0),
-                brightness=3.0,
-                attenuation_per_m=0.08,
-                halo_fraction_per_m=0.04,
-                surface_height_m=2.0,
-                reflection_gain=0.8,
-                ripple_m=0.02,
-                motion_blur_px=float(rng.uniform(0, 3)),
-                seed=int(rng.integers(2**31)),
-            )
-        )
-    return specs
-
-
 def run(args: argparse.Namespace) -> int:
-    camera = paper_camera()
-    detector = Detector(camera)
-    progress = Progress("approach", args.frames)
-    found = 0
-    center_errors = []
-    print(f"{'frame':>5} {'true z':>7} {'found':>6} {'range':>7} {'yaw':>8} {'pitch':>8} {'err px':>7}")
-    for i, spec in enumerate(approach_scenes(args.frames)):
-        image, truth = render(camera, spec)
-        detection = detector.detect(image)
-        progress(i + 1)
-        pose = detection.pose
-        error = math.nan
-        if detection.found and truth.center_px is not None:
-            error = math.hypot(detection.u - truth.center_px[0], detection.v - truth.center_px[1])
-            found += 1
-            center_errors.append(error)
-        if i % max(1, args.frames // 12) == 0 or i == args.frames - 1:
-            print(
-                f"{i:5d} {spec.marker_center_m[2]:7.2f} {str(detection.found):>6} "  # type: ignore[index]
-                + (f"{pose.range_m:7.2f} {pose.yaw_deg:+8.2f} {pose.pitch_deg:+8.2f} {error:7.2f}" if pose else "")
-            )
-    print(f"detected in {found}/{args.frames} frames; centre error p50 "
-          f"{np.percentile(center_errors, 50):.2f} px, max {max(center_errors):.2f} px" if center_errors
-          else "marker never detected")
-    return 0 if found else 1
+    import rclpy
+    from geometry_msgs.msg import Vector3Stamped
+    from std_msgs.msg import String
+
+    from auv_dock_guidance.nodes.conversions import seconds_stamp, vehicle_to_pose
+    from auv_dock_guidance.recording import DEBUG_TOPICS, BagRecorder
+    from geometry_msgs.msg import PoseStamped
+
+    report = Path(args.report or f"reports/demo-{datetime.now():%Y%m%d-%H%M%S}")
+    if report.exists() and any(report.iterdir()):
+        fail(f"report folder {report} is not empty; choose another with --report")
+    report.mkdir(parents=True, exist_ok=True)
+    world = PoolWorld(reflection=args.scenario == "reflection")
+    start = VehiclePose(x=world.dock_x_m - 12.0, y=1.0, z=-world.dock_depth_m + 0.5, yaw=math.radians(5.0))
+    vehicle = AuvDynamics(start, seed=7)
+    controller = MainControllerSim(vehicle=vehicle).start()
+    domain = random.Random(os.getpid()).randint(30, 200)
+    group = NodeGroup(
+        ["camera_ingest", "detector", "guidance", "serial_bridge"],
+        overrides={
+            "camera_ingest": {"source": "sim", "sim_reflection": world.reflection},
+            "serial_bridge": {"port": controller.port, "arm_on_start": True},
+        },
+        env=ros_environment(domain_id=domain),
+        log_dir=report / "logs",
+    )
+    rclpy.init(domain_id=domain)
+    node = rclpy.create_node("demo_simulator")
+    pose_pub = node.create_publisher(PoseStamped, "sim/vehicle_pose", 1)
+    node.create_timer(1 / 30, lambda: pose_pub.publish(vehicle_to_pose(vehicle.pose, seconds_stamp(time.time()))))
+    seen = {"state": "starting", "bearing": None}
+    node.create_subscription(String, "guidance/state", lambda m: seen.__setitem__("state", m.data), 10)
+    node.create_subscription(String, "guidance/transition", lambda m: print(f"  guidance: {m.data}", flush=True), 10)
+    bearings: list[tuple[float, float, float]] = []
+    t0 = time.monotonic()
+
+    def on_bearing(m: Vector3Stamped) -> None:
+        seen["bearing"] = m.vector
+        bearings.append((time.monotonic() - t0, math.degrees(m.vector.x), math.degrees(m.vector.y)))
+
+    node.create_subscription(Vector3Stamped, "dock/bearing", on_bearing, 10)
+    recorder = BagRecorder(node, report / "debug_bag", DEBUG_TOPICS)
+    group.start()
+    print(f"demo: {args.scenario} pool, vehicle 12 m out, 1 m to the side, 0.5 m above the dock; report in {report}",
+          flush=True)
+    trajectory: list[tuple[float, float, float, float, float]] = []
+    outcome, lateral, heading = "timeout", None, None
+    last_print = 0.0
+    try:
+        while (elapsed := time.monotonic() - t0) < args.timeout:
+            rclpy.spin_once(node, timeout_sec=0.05)
+            p = vehicle.pose
+            trajectory.append((elapsed, p.x, p.y, p.z, p.yaw))
+            if elapsed - last_print >= 2.0:
+                last_print = elapsed
+                b = seen["bearing"]
+                sight = f"range {b.z:5.2f} m  yaw {math.degrees(b.x):+6.2f}  pitch {math.degrees(b.y):+6.2f} deg" \
+                    if b is not None else "no marker yet"
+                print(f"  t={elapsed:5.1f} s  {seen['state']:<9} {sight}  (to dock {world.dock_x_m - world.camera_position(p)[0]:5.2f} m)",
+                      flush=True)
+            if world.camera_position(p)[0] >= world.dock_x_m:
+                outcome, lateral, heading = entry_outcome(world, p)
+                break
+            if seen["state"] == "ABORT":
+                outcome = "abort"
+                break
+            if group.exited():
+                outcome = f"node stopped: {group.exited()}"
+                break
+    except KeyboardInterrupt:
+        outcome = "interrupted"
+    duration = time.monotonic() - t0
+    recorder.close()
+    node.destroy_node()
+    rclpy.try_shutdown()
+    codes = group.stop()
+    controller.stop()
+    result = EpisodeResult(0, outcome == "docked", outcome, duration, lateral, heading, None,
+                           trajectory[::5], bearings, [])
+    plots = plot([result], report, world.dock_x_m, world.dock_depth_m, world.entrance_radius_m, title="demo")
+    summary = {
+        "outcome": outcome, "docked": outcome == "docked", "time_s": round(duration, 2),
+        "entry_lateral_error_m": lateral, "entry_heading_error_deg": heading, "scenario": args.scenario,
+        "frames_with_marker": len(bearings), "bag": str(report / "debug_bag"), "messages": recorder.counts,
+        "plots": [str(p) for p in plots], "node_exit_codes": codes,
+    }
+    (report / "summary.json").write_text(json.dumps(summary, indent=2))
+    if outcome == "docked":
+        print(f"docked in {duration:.1f} s (entry {100 * lateral:.1f} cm off centre, heading {heading:.1f} deg off the axis)")
+    else:
+        print(f"not docked: {outcome} after {duration:.1f} s")
+    print(f"report: {report}/summary.json, {', '.join(p.name for p in plots)}, debug_bag/ (MCAP)")
+    return 0 if outcome == "docked" else 1

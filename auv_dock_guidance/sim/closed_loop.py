@@ -136,9 +136,10 @@ def run_episode(config: EpisodeConfig, seed: int) -> EpisodeResult:
         p = vehicle.pose
         if frame % 2 == 0:
             result.trajectory.append((t, p.x, p.y, p.z, p.yaw))
-        nose = world.camera_position(p)
-        if nose[0] >= world.dock_x_m:
-            _judge_entry(result, world, config, nose, p)
+        if world.camera_position(p)[0] >= world.dock_x_m:
+            result.reason, result.entry_lateral_error_m, result.entry_heading_error_deg = entry_outcome(
+                world, p, config.vehicle_radius_m, config.max_heading_error_deg)
+            result.success = result.reason == "docked"
             break
         if abs(p.y) > world.width_m / 2 - config.vehicle_radius_m or not (-world.depth_m < p.z < -0.1):
             result.reason = "collision"
@@ -160,15 +161,19 @@ def run_episode(config: EpisodeConfig, seed: int) -> EpisodeResult:
     return result
 
 
-def _judge_entry(result: EpisodeResult, world: PoolWorld, config: EpisodeConfig, nose: np.ndarray,
-                 pose: VehiclePose) -> None:
+def entry_outcome(world: PoolWorld, pose: VehiclePose, vehicle_radius_m: float = 0.12,
+                  max_heading_error_deg: float = 15.0) -> tuple[str, float, float]:
+    """(reason, lateral error m, heading error deg) as the nose crosses the entrance plane.
+
+    Docked: the nose is inside the entrance radius less the hull radius, and the hull is
+    within the heading limit of the dock's axis.
+    """
+    nose = world.camera_position(pose)
     lateral = float(math.hypot(nose[1] - world.dock_center[1], nose[2] - world.dock_center[2]))
     heading = math.degrees(math.acos(max(-1.0, min(1.0, float(pose.body_to_world()[0, 0])))))
-    result.entry_lateral_error_m = lateral
-    result.entry_heading_error_deg = heading
-    inside = lateral < world.entrance_radius_m - config.vehicle_radius_m
-    result.success = inside and heading < config.max_heading_error_deg
-    result.reason = "docked" if result.success else ("missed" if not inside else "bad_heading")
+    if lateral >= world.entrance_radius_m - vehicle_radius_m:
+        return "missed", lateral, heading
+    return ("docked" if heading < max_heading_error_deg else "bad_heading"), lateral, heading
 
 
 def _on_reflection(u: float, v: float, truth) -> bool:

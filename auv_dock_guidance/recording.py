@@ -1,0 +1,76 @@
+"""Record live topics into a ROS 2 bag (MCAP by default) without rosbag2: raw CDR straight to rosbags.
+
+The subscriptions take the serialized bytes (``raw=True``), so nothing is deserialized
+and serialized again; rosbags writes the message definitions, so Foxglove and
+``ros2 bag`` open the file.
+"""
+
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.typesys import Stores, get_typestore
+
+from auv_dock_guidance.errors import DockGuidanceError
+
+DEBUG_TOPICS = {
+    "dock/target": "geometry_msgs/msg/PointStamped",
+    "dock/bearing": "geometry_msgs/msg/Vector3Stamped",
+    "dock/detected": "std_msgs/msg/Bool",
+    "dock/debug_image/compressed": "sensor_msgs/msg/CompressedImage",
+    "guidance/state": "std_msgs/msg/String",
+    "guidance/transition": "std_msgs/msg/String",
+    "guidance/setpoint": "geometry_msgs/msg/Vector3Stamped",
+    "guidance/demands": "geometry_msgs/msg/Vector3Stamped",
+    "thrusters/command": "std_msgs/msg/UInt16MultiArray",
+    "vehicle/imu": "sensor_msgs/msg/Imu",
+    "vehicle/depth": "std_msgs/msg/Float64",
+    "/diagnostics": "diagnostic_msgs/msg/DiagnosticArray",
+}
+
+
+def message_class(msgtype: str) -> type:
+    """The rclpy message class for 'pkg/msg/Name'."""
+    package, _, name = msgtype.split("/")
+    module = __import__(f"{package}.msg", fromlist=[name])
+    return getattr(module, name)
+
+
+class BagRecorder:
+    def __init__(self, node: Node, path: Path, topics: dict[str, str], storage: str = "mcap") -> None:
+        if path.exists():
+            raise DockGuidanceError(f"{path} exists; a bag is never written over")
+        plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
+        self._writer = Writer(path, version=9, storage_plugin=plugin)
+        self._writer.open()
+        self._lock = threading.Lock()
+        self._closed = False
+        self.counts: dict[str, int] = {}
+        typestore = get_typestore(Stores.ROS2_JAZZY)
+        qos = QoSProfile(depth=50, reliability=ReliabilityPolicy.BEST_EFFORT)
+        self._subscriptions = []
+        for topic, msgtype in topics.items():
+            name = topic if topic.startswith("/") else f"/{topic}"
+            connection = self._writer.add_connection(name, msgtype, typestore=typestore)
+            self.counts[name] = 0
+            self._subscriptions.append(node.create_subscription(
+                message_class(msgtype), topic, self._writer_for(connection, name, node), qos, raw=True))
+
+    def _writer_for(self, connection, name: str, node: Node):
+        def write(data: bytes) -> None:
+            stamp = node.get_clock().now().nanoseconds
+            with self._lock:
+                if not self._closed:
+                    self._writer.write(connection, stamp, data)
+                    self.counts[name] += 1
+        return write
+
+    def close(self) -> None:
+        with self._lock:
+            if not self._closed:
+                self._closed = True
+                self._writer.close()
