@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from auv_dock_guidance import __version__
-from auv_dock_guidance.cli import bench, calibrate, demo, detect, evaluate, link, run, simulate
+from auv_dock_guidance.cli import bag, bench, calibrate, demo, detect, evaluate, link, run, simulate
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -25,6 +25,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_parser(subparsers)
     bench.add_parser(subparsers)
     simulate.add_parser(subparsers)
+    bag.add_parsers(subparsers)
     return parser
 
 

@@ -10,12 +10,10 @@ from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import CameraInfo, Image, Imu
 
 from auv_dock_guidance.control.cascade import Attitude
-from auv_dock_guidance.errors import ImageInputError
 from auv_dock_guidance.geometry.camera import CameraModel
+from auv_dock_guidance.geometry.rotations import navigation_attitude, rep103_quaternion
 from auv_dock_guidance.sim.world import VehiclePose
-
-_CHANNELS = {"bgr8": 3, "rgb8": 3, "mono8": 1, "bgra8": 4, "rgba8": 4, "8UC1": 1, "8UC3": 3}
-
+from auv_dock_guidance.vision.image_input import image_from_fields
 
 def stamp_seconds(stamp: TimeMsg) -> float:
     return stamp.sec + stamp.nanosec * 1e-9
@@ -27,27 +25,8 @@ def seconds_stamp(seconds: float) -> TimeMsg:
 
 
 def image_to_array(msg: Image) -> np.ndarray:
-    """A zero-copy numpy view of an 8-bit image message (BGR or mono; RGB is reordered).
-
-    Raises ImageInputError on an encoding, size or step that does not add up.
-    """
-    channels = _CHANNELS.get(msg.encoding)
-    if channels is None:
-        raise ImageInputError(f"image encoding {msg.encoding!r} is not supported (use bgr8, rgb8 or mono8)")
-    if msg.height == 0 or msg.width == 0:
-        raise ImageInputError(f"image is empty ({msg.width}x{msg.height})")
-    row = msg.width * channels
-    if msg.step < row:
-        raise ImageInputError(f"image step {msg.step} is smaller than width x channels = {row}")
-    data = msg.data
-    buffer = np.frombuffer(data, dtype=np.uint8) if not isinstance(data, np.ndarray) else data.view(np.uint8)
-    if buffer.size < msg.step * msg.height:
-        raise ImageInputError(f"image data has {buffer.size} bytes, expected step x height = {msg.step * msg.height}")
-    frame = buffer[: msg.step * msg.height].reshape(msg.height, msg.step)[:, :row]
-    frame = frame.reshape(msg.height, msg.width, channels) if channels > 1 else frame
-    if msg.encoding in ("rgb8", "rgba8"):
-        frame = frame[:, :, 2::-1]
-    return frame
+    """A zero-copy numpy view of an 8-bit image message; ImageInputError when it does not add up."""
+    return image_from_fields(msg.height, msg.width, msg.encoding, msg.step, msg.data)
 
 
 def array_to_image(frame: np.ndarray, stamp: TimeMsg, frame_id: str) -> Image:
@@ -92,7 +71,7 @@ def attitude_to_imu(attitude: Attitude, rates: tuple[float, float, float], frame
     msg = Imu()
     msg.header.stamp = seconds_stamp(attitude.stamp_s)
     msg.header.frame_id = frame_id
-    qx, qy, qz, qw = _quaternion(attitude.roll_rad, -attitude.pitch_rad, -attitude.yaw_rad)
+    qx, qy, qz, qw = rep103_quaternion(attitude.roll_rad, attitude.pitch_rad, attitude.yaw_rad)
     msg.orientation.x, msg.orientation.y, msg.orientation.z, msg.orientation.w = qx, qy, qz, qw
     msg.angular_velocity.x, msg.angular_velocity.y, msg.angular_velocity.z = rates[0], -rates[1], -rates[2]
     msg.linear_acceleration_covariance[0] = -1.0  # no acceleration data
@@ -101,27 +80,8 @@ def attitude_to_imu(attitude: Attitude, rates: tuple[float, float, float], frame
 
 def imu_to_attitude(msg: Imu, depth_m: float) -> Attitude:
     q = msg.orientation
-    roll, pitch, yaw = _euler(q.x, q.y, q.z, q.w)
-    return Attitude(stamp_seconds(msg.header.stamp), roll, -pitch, -yaw, depth_m)
-
-
-def _quaternion(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:
-    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
-    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
-    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
-    return (
-        sr * cp * cy - cr * sp * sy,
-        cr * sp * cy + sr * cp * sy,
-        cr * cp * sy - sr * sp * cy,
-        cr * cp * cy + sr * sp * sy,
-    )
-
-
-def _euler(x: float, y: float, z: float, w: float) -> tuple[float, float, float]:
-    roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-    pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
-    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    return roll, pitch, yaw
+    roll, pitch, yaw = navigation_attitude(q.x, q.y, q.z, q.w)
+    return Attitude(stamp_seconds(msg.header.stamp), roll, pitch, yaw, depth_m)
 
 
 def vehicle_to_pose(pose: VehiclePose, stamp: TimeMsg, frame_id: str = "pool") -> PoseStamped:
@@ -130,13 +90,13 @@ def vehicle_to_pose(pose: VehiclePose, stamp: TimeMsg, frame_id: str = "pool") -
     msg.header.stamp = stamp
     msg.header.frame_id = frame_id
     msg.pose.position.x, msg.pose.position.y, msg.pose.position.z = pose.x, pose.y, pose.z
-    q = _quaternion(pose.roll, -pose.pitch, -pose.yaw)
+    q = rep103_quaternion(pose.roll, pose.pitch, pose.yaw)
     msg.pose.orientation.x, msg.pose.orientation.y, msg.pose.orientation.z, msg.pose.orientation.w = q
     return msg
 
 
 def pose_to_vehicle(msg: PoseStamped) -> VehiclePose:
     q = msg.pose.orientation
-    roll, pitch, yaw = _euler(q.x, q.y, q.z, q.w)
+    roll, pitch, yaw = navigation_attitude(q.x, q.y, q.z, q.w)
     p = msg.pose.position
-    return VehiclePose(p.x, p.y, p.z, roll, -pitch, -yaw)
+    return VehiclePose(p.x, p.y, p.z, roll, pitch, yaw)

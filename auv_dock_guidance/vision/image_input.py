@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -47,6 +48,42 @@ def read_image(path: str | Path) -> np.ndarray:
     if image is None:
         raise ImageInputError(f"{path}: not an image OpenCV can decode")
     return as_bgr_or_gray8(image, str(path))
+
+
+_CHANNELS = {"bgr8": 3, "rgb8": 3, "mono8": 1, "bgra8": 4, "rgba8": 4, "8UC1": 1, "8UC3": 3}
+
+
+def image_from_fields(height: int, width: int, encoding: str, step: int, data: Any) -> np.ndarray:
+    """A zero-copy numpy view of the fields of a sensor_msgs/Image (BGR or mono; RGB reordered).
+
+    Works with rclpy messages and with rosbags' deserialized ones alike. Raises
+    ImageInputError on an encoding, size or step that does not add up.
+    """
+    channels = _CHANNELS.get(encoding)
+    if channels is None:
+        raise ImageInputError(f"image encoding {encoding!r} is not supported (use bgr8, rgb8 or mono8)")
+    if height == 0 or width == 0:
+        raise ImageInputError(f"image is empty ({width}x{height})")
+    row = width * channels
+    if step < row:
+        raise ImageInputError(f"image step {step} is smaller than width x channels = {row}")
+    buffer = data.view(np.uint8).ravel() if isinstance(data, np.ndarray) else np.frombuffer(data, dtype=np.uint8)
+    if buffer.size < step * height:
+        raise ImageInputError(f"image data has {buffer.size} bytes, expected step x height = {step * height}")
+    frame = buffer[: step * height].reshape(height, step)[:, :row]
+    frame = frame.reshape(height, width, channels) if channels > 1 else frame
+    if encoding in ("rgb8", "rgba8"):
+        frame = frame[:, :, 2::-1]
+    return frame
+
+
+def decode_compressed(data: Any, source: str = "compressed image") -> np.ndarray:
+    """A JPEG/PNG buffer (sensor_msgs/CompressedImage data) as an 8-bit image."""
+    buffer = data if isinstance(data, np.ndarray) else np.frombuffer(data, dtype=np.uint8)
+    image = cv2.imdecode(buffer.astype(np.uint8, copy=False), cv2.IMREAD_UNCHANGED)
+    if image is None:
+        raise ImageInputError(f"{source}: not a JPEG or PNG OpenCV can decode")
+    return as_bgr_or_gray8(image, source)
 
 
 def intensity(image: np.ndarray) -> np.ndarray:

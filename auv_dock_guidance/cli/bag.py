@@ -1,0 +1,193 @@
+"""`auv-dock record`, `replay`, `compare` and `make-fixture`: ROS 2 bags without ROS tooling."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+from pathlib import Path
+
+from auv_dock_guidance.cli.common import fail, positive_float, print_json
+from auv_dock_guidance.cli.progress import Progress
+from auv_dock_guidance.errors import DockGuidanceError
+from auv_dock_guidance.replay import compare, replay
+
+
+def add_parsers(subparsers: argparse._SubParsersAction) -> None:
+    r = subparsers.add_parser("record", help="record the live system's topics into a ROS 2 bag (MCAP)",
+                              description="Record camera, detection, guidance, telemetry and thruster topics "
+                              "until Ctrl-C (or --duration).")
+    r.add_argument("output", metavar="OUT", help="bag folder to create")
+    r.add_argument("--topics", nargs="+", help="topics to record (default: all of this system's)")
+    r.add_argument("--storage", choices=["mcap", "sqlite3"], default="mcap")
+    r.add_argument("--duration", type=positive_float, help="stop after this many seconds")
+    r.add_argument("--domain-id", type=int, help="ROS_DOMAIN_ID to listen on")
+    r.set_defaults(run=run_record)
+
+    p = subparsers.add_parser("replay", help="run detector and guidance over a recorded bag",
+                              description="Read the camera topic (Image or CompressedImage) and camera info, run "
+                              "the detector and guidance deterministically as fast as possible, and write their "
+                              "outputs under /replay/ into a new bag beside the input topics.")
+    p.add_argument("bag", metavar="BAG")
+    p.add_argument("--output", "-o", metavar="OUT", help="output bag folder (default BAG_replay)")
+    p.add_argument("--camera-info", metavar="YAML", help="camera model when the bag has none (or to override it)")
+    p.add_argument("--image-topic", help="camera topic when the bag has several")
+    p.add_argument("--no-inputs", action="store_true", help="write only the /replay/ topics")
+    p.add_argument("--realtime", action="store_true", help="with --publish: keep the recorded timing")
+    p.add_argument("--publish", action="store_true", help="republish the bag into the live ROS graph instead")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(run=run_replay)
+
+    c = subparsers.add_parser("compare", help="compare two replay outputs within tolerances (regression check)")
+    c.add_argument("a", metavar="A")
+    c.add_argument("b", metavar="B")
+    c.add_argument("--center-px", type=positive_float, default=1.0, help="centre tolerance (default %(default)s px)")
+    c.add_argument("--range-pct", type=positive_float, default=2.0, help="range tolerance (default %(default)s %%)")
+    c.add_argument("--command-us", type=int, default=10, help="thruster command tolerance (default %(default)s us)")
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(run=run_compare)
+
+    f = subparsers.add_parser("make-fixture", help="write the simulated approach bag used by the replay test")
+    f.add_argument("output", metavar="OUT")
+    f.set_defaults(run=run_make_fixture)
+
+
+def run_replay(args: argparse.Namespace) -> int:
+    bag = Path(args.bag)
+    if args.publish:
+        return _publish(bag, args.realtime)
+    output = Path(args.output) if args.output else bag.with_name(bag.name + "_replay")
+    try:
+        summary = replay(bag, output, Path(args.camera_info) if args.camera_info else None, args.image_topic,
+                         copy_inputs=not args.no_inputs, progress=Progress("replay", 1))
+    except DockGuidanceError as exc:
+        fail(str(exc), code=1)
+    report = summary.as_dict()
+    if args.json:
+        print_json(report)
+    else:
+        print(f"{report['frames']} frames, {report['detections']} with the marker "
+              f"({100 * report['detection_rate']:.1f} %), {report['fps'] or 0:.0f} frames/s")
+        for line in report["transitions"]:
+            print(f"  {line}")
+        if report["command_range_us"]:
+            print("  thruster pulses (min-max us): " + ", ".join(f"{lo}-{hi}" for lo, hi in report["command_range_us"]))
+        if report["damage"]:
+            print(f"  warning: {report['damage']}")
+        print(f"wrote {report['output']}")
+    return 0 if summary.frames and not summary.damage else (1 if not summary.frames else 0)
+
+
+def run_compare(args: argparse.Namespace) -> int:
+    try:
+        result = compare(Path(args.a), Path(args.b), args.center_px, args.range_pct, args.command_us)
+    except DockGuidanceError as exc:
+        fail(str(exc), code=1)
+    data = {
+        "frames_a": result.frames_a, "frames_b": result.frames_b, "matched": result.matched,
+        "center_px_max": result.center_px_max, "range_rel_max": result.range_rel_max,
+        "command_us_max": result.command_us_max, "detection_mismatches": result.detection_mismatches,
+        "problems": result.problems, "within_tolerance": not result.problems,
+    }
+    if args.json:
+        print_json(data)
+    else:
+        print(f"{result.matched} frames matched; centre differs by up to {result.center_px_max:.3f} px, range by "
+              f"{100 * result.range_rel_max:.2f} %, commands by {result.command_us_max} us; "
+              f"{result.detection_mismatches} detection mismatches")
+        for problem in result.problems:
+            print(f"  {problem}")
+        print("within tolerance" if not result.problems else "DIFFERENT beyond tolerance")
+    return 0 if not result.problems else 1
+
+
+def run_make_fixture(args: argparse.Namespace) -> int:
+    from auv_dock_guidance.sim.fixture import make_fixture
+
+    try:
+        make_fixture(Path(args.output))
+    except DockGuidanceError as exc:
+        fail(str(exc), code=1)
+    print(f"wrote {args.output}")
+    return 0
+
+
+def run_record(args: argparse.Namespace) -> int:
+    import rclpy
+
+    from auv_dock_guidance.recording import DEBUG_TOPICS, BagRecorder
+
+    topics = dict(DEBUG_TOPICS)
+    topics.update({"camera/image_raw": "sensor_msgs/msg/Image", "camera/camera_info": "sensor_msgs/msg/CameraInfo",
+                   "vehicle/armed": "std_msgs/msg/Bool"})
+    if args.topics:
+        unknown = [t for t in args.topics if t not in topics and f"/{t.lstrip('/')}" not in topics]
+        if unknown:
+            fail(f"unknown topic(s) {', '.join(unknown)}; known: {', '.join(topics)}")
+        topics = {t: m for t, m in topics.items() if t in args.topics or f"/{t.lstrip('/')}" in args.topics}
+    if args.domain_id is not None:
+        os.environ["ROS_DOMAIN_ID"] = str(args.domain_id)
+    rclpy.init()
+    node = rclpy.create_node("auv_dock_recorder")
+    try:
+        recorder = BagRecorder(node, Path(args.output), topics, args.storage)
+    except DockGuidanceError as exc:
+        node.destroy_node()
+        rclpy.try_shutdown()
+        fail(str(exc))
+    end = time.monotonic() + args.duration if args.duration else None
+    print(f"recording {len(topics)} topics into {args.output}; Ctrl-C stops", flush=True)
+    try:
+        while end is None or time.monotonic() < end:
+            rclpy.spin_once(node, timeout_sec=0.1)
+    except KeyboardInterrupt:
+        pass
+    recorder.close()
+    node.destroy_node()
+    rclpy.try_shutdown()
+    print(json.dumps({k: v for k, v in recorder.counts.items() if v}))
+    return 0
+
+
+def _publish(bag: Path, realtime: bool) -> int:
+    """Republish a bag into the live graph (original timing with --realtime)."""
+    import rclpy
+    from rclpy.serialization import deserialize_message
+    from rosbags.highlevel import AnyReader
+
+    from auv_dock_guidance.recording import message_class
+
+    rclpy.init()
+    node = rclpy.create_node("auv_dock_bag_player")
+    try:
+        with AnyReader([bag]) as reader:
+            publishers = {}
+            for c in reader.connections:
+                try:
+                    publishers[c.id] = (node.create_publisher(message_class(c.msgtype), c.topic, 10),
+                                        message_class(c.msgtype))
+                except (ImportError, AttributeError, ValueError):
+                    print(f"skipping {c.topic}: type {c.msgtype} is not available here")
+            first_bag = first_wall = None
+            count = 0
+            for connection, timestamp, raw in reader.messages(connections=[c for c in reader.connections
+                                                                           if c.id in publishers]):
+                if realtime:
+                    first_bag = first_bag if first_bag is not None else timestamp
+                    first_wall = first_wall if first_wall is not None else time.monotonic()
+                    delay = (timestamp - first_bag) * 1e-9 - (time.monotonic() - first_wall)
+                    if delay > 0:
+                        time.sleep(delay)
+                publisher, cls = publishers[connection.id]
+                publisher.publish(deserialize_message(bytes(raw), cls))
+                count += 1
+    except KeyboardInterrupt:
+        pass
+    except Exception as exc:
+        fail(f"{bag}: {exc}", code=1)
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    print(f"published {count} messages")
+    return 0

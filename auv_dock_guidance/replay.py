@@ -1,0 +1,320 @@
+"""Offline replay of recorded runs: the detector and guidance over a ROS 2 bag, no ROS needed.
+
+Reads the camera topic (sensor_msgs/Image or CompressedImage), camera info from the bag
+or a file, and the vehicle's attitude (sensor_msgs/Imu) when recorded; runs the detector
+and guidance deterministically, as fast as possible, in message-time order; writes their
+outputs under ``/replay/...`` into a new bag, with the input topics copied beside them
+unless asked not to. A damaged bag is processed up to the damage and the damage reported;
+frames that cannot be decoded are counted and skipped.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from rosbags.highlevel import AnyReader
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.typesys import Stores, get_typestore
+
+from auv_dock_guidance.control.cascade import Attitude, Target
+from auv_dock_guidance.control.guidance import Guidance, GuidanceConfig, State
+from auv_dock_guidance.errors import CameraModelError, DockGuidanceError
+from auv_dock_guidance.geometry.camera import CameraModel
+from auv_dock_guidance.geometry.rotations import navigation_attitude
+from auv_dock_guidance.vision.detector import Detector, DetectorConfig
+from auv_dock_guidance.vision.image_input import decode_compressed, image_from_fields
+
+IMAGE_TYPES = ("sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage")
+OUTPUT_TOPICS = {
+    "/replay/dock/target": "geometry_msgs/msg/PointStamped",
+    "/replay/dock/center_px": "geometry_msgs/msg/PointStamped",  # x u, y v, z radius (pixels)
+    "/replay/dock/detected": "std_msgs/msg/Bool",
+    "/replay/guidance/state": "std_msgs/msg/String",
+    "/replay/thrusters/command": "std_msgs/msg/UInt16MultiArray",
+}
+
+
+class BagError(DockGuidanceError):
+    """A bag that cannot be replayed (missing, no camera topic, no camera model...)."""
+
+
+@dataclass
+class ReplaySummary:
+    frames: int = 0
+    detections: int = 0
+    bad_frames: int = 0
+    transitions: list[str] = field(default_factory=list)
+    command_min_us: list[int] = field(default_factory=lambda: [65535] * 4)
+    command_max_us: list[int] = field(default_factory=lambda: [0] * 4)
+    seconds: float = 0.0
+    damage: str | None = None
+    skipped_topics: list[str] = field(default_factory=list)
+    output: str | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "frames": self.frames,
+            "detections": self.detections,
+            "detection_rate": self.detections / self.frames if self.frames else 0.0,
+            "bad_frames": self.bad_frames,
+            "fps": self.frames / self.seconds if self.seconds > 0 else None,
+            "transitions": self.transitions,
+            "command_range_us": [[lo, hi] for lo, hi in zip(self.command_min_us, self.command_max_us)]
+            if self.frames else None,
+            "damage": self.damage,
+            "skipped_topics": self.skipped_topics,
+            "output": self.output,
+        }
+
+
+def _pick_image_topic(reader: AnyReader, wanted: str | None) -> Any:
+    images = [c for c in reader.connections if c.msgtype in IMAGE_TYPES]
+    if wanted:
+        images = [c for c in images if c.topic == wanted or c.topic.lstrip("/") == wanted.lstrip("/")]
+    if not images:
+        topics = ", ".join(f"{c.topic} ({c.msgtype})" for c in reader.connections) or "none"
+        raise BagError(f"no camera topic (sensor_msgs/Image or CompressedImage){' named ' + wanted if wanted else ''}"
+                       f" in the bag; it has: {topics}")
+    # Prefer the raw image when both are recorded: no JPEG loss.
+    images.sort(key=lambda c: (c.msgtype != "sensor_msgs/msg/Image", c.topic))
+    return images[0]
+
+
+def replay(
+    bag: Path,
+    output: Path | None,
+    camera_file: Path | None = None,
+    image_topic: str | None = None,
+    copy_inputs: bool = True,
+    detector_config: DetectorConfig = DetectorConfig(),
+    guidance_config: GuidanceConfig = GuidanceConfig(),
+    progress: Callable[[int, int], None] | None = None,
+) -> ReplaySummary:
+    if not bag.exists():
+        raise BagError(f"{bag}: no such bag")
+    if output is not None and output.exists():
+        raise BagError(f"{output} exists; replay never writes over a bag")
+    camera = CameraModel.from_yaml(camera_file) if camera_file else None
+    summary = ReplaySummary(output=str(output) if output else None)
+    try:
+        reader = AnyReader([bag])
+        reader.open()
+    except Exception as exc:  # rosbags raises many kinds for unreadable files
+        raise BagError(f"{bag}: cannot open as a ROS 2 bag ({exc})") from exc
+    writer = None
+    try:
+        image_conn = _pick_image_topic(reader, image_topic)
+        info_conns = [c for c in reader.connections if c.msgtype == "sensor_msgs/msg/CameraInfo"]
+        imu_conns = [c for c in reader.connections if c.msgtype == "sensor_msgs/msg/Imu"]
+        if camera is None and not info_conns:
+            raise BagError("the bag has no sensor_msgs/CameraInfo; give the camera with --camera-info")
+        wanted = [image_conn, *info_conns, *imu_conns]
+        typestore = get_typestore(Stores.ROS2_JAZZY)
+        if output is not None:
+            writer = Writer(output, version=9, storage_plugin=StoragePlugin.MCAP)
+            writer.open()
+            outputs = {t: writer.add_connection(t, m, typestore=typestore) for t, m in OUTPUT_TOPICS.items()}
+            copies = {}
+            if copy_inputs:
+                for c in reader.connections:
+                    try:
+                        copies[c.id] = writer.add_connection(c.topic, c.msgtype, typestore=reader.typestore)
+                    except Exception:  # a type rosbags cannot describe: leave it out, say so
+                        summary.skipped_topics.append(c.topic)
+                wanted = list(reader.connections)
+        if camera is None:
+            camera = _first_camera(reader, info_conns)
+        detector = Detector(camera, detector_config)
+        guidance = Guidance(guidance_config)
+        attitude: Attitude | None = None
+        messages = reader.messages(connections=[c for c in wanted if c.topic not in summary.skipped_topics])
+        total = image_conn.msgcount
+        start = time.perf_counter()
+        while True:
+            try:
+                connection, timestamp, raw = next(messages)
+            except StopIteration:
+                break
+            except Exception as exc:  # truncated or corrupt data: keep what came before
+                summary.damage = f"bag damaged after {summary.frames} frames: {exc.__class__.__name__}: {exc}"
+                break
+            if writer is not None and connection.id in copies:
+                writer.write(copies[connection.id], timestamp, raw)
+            try:
+                msg = reader.deserialize(raw, connection.msgtype)
+            except Exception as exc:
+                summary.damage = f"undecodable {connection.topic} message after {summary.frames} frames: {exc}"
+                continue
+            if connection.msgtype == "sensor_msgs/msg/CameraInfo":
+                if camera_file is None:
+                    try:
+                        model = CameraModel.from_camera_info(msg.width, msg.height, msg.k, msg.d,
+                                                             msg.distortion_model or "plumb_bob")
+                    except CameraModelError as exc:
+                        summary.damage = f"camera_info rejected: {exc}"
+                        continue
+                    if model != detector.camera:
+                        detector.camera = model
+                continue
+            if connection.msgtype == "sensor_msgs/msg/Imu":
+                q = msg.orientation
+                roll, pitch, yaw = navigation_attitude(q.x, q.y, q.z, q.w)
+                attitude = Attitude(_stamp(msg.header.stamp), roll, pitch, yaw)
+                continue
+            if connection is not image_conn:
+                continue
+            stamp = _stamp(msg.header.stamp)
+            summary.frames += 1
+            if progress is not None:
+                progress(summary.frames, total)
+            try:
+                frame = (decode_compressed(msg.data, connection.topic)
+                         if connection.msgtype.endswith("CompressedImage")
+                         else image_from_fields(msg.height, msg.width, msg.encoding, msg.step, msg.data))
+                if detector.camera is None:
+                    raise DockGuidanceError("no camera_info before the first frame")
+                detection = detector.detect(frame)
+            except DockGuidanceError as exc:
+                summary.bad_frames += 1
+                summary.damage = summary.damage or f"frame {summary.frames} rejected: {exc}"
+                continue
+            # Without recorded navigation, a level vehicle holding its heading stands in.
+            nav = attitude if attitude is not None else Attitude(stamp, 0.0, 0.0, 0.0)
+            nav = Attitude(stamp, nav.roll_rad, nav.pitch_rad, nav.yaw_rad, nav.depth_m)
+            target = None
+            pose = detection.pose
+            if detection.found and pose is not None:
+                summary.detections += 1
+                target = Target(stamp, pose.range_m, pose.offset_x_m, pose.offset_y_m)
+            else:
+                guidance.marker_missed()
+            out = guidance.update(stamp, target, nav)
+            if out.transition is not None:
+                t = out.transition
+                summary.transitions.append(f"{t.time_s:.3f}: {t.previous.value} -> {t.state.value}: {t.reason}")
+            for i, p in enumerate(out.command.pwm_us):
+                summary.command_min_us[i] = min(summary.command_min_us[i], p)
+                summary.command_max_us[i] = max(summary.command_max_us[i], p)
+            if writer is not None:
+                _write_outputs(writer, outputs, typestore, timestamp, msg.header, detection, out.state,
+                               out.command.pwm_us)
+        summary.seconds = time.perf_counter() - start
+    finally:
+        if writer is not None:
+            writer.close()
+        reader.close()
+    return summary
+
+
+def _first_camera(reader: AnyReader, info_conns: list) -> CameraModel:
+    """The camera from the bag's first usable camera_info (it may be recorded after the first frame)."""
+    problem = "no camera_info message"
+    try:
+        for connection, _, raw in reader.messages(connections=info_conns):
+            msg = reader.deserialize(raw, connection.msgtype)
+            try:
+                return CameraModel.from_camera_info(msg.width, msg.height, msg.k, msg.d,
+                                                    msg.distortion_model or "plumb_bob")
+            except CameraModelError as exc:
+                problem = str(exc)
+    except Exception as exc:
+        problem = f"camera_info unreadable ({exc})"
+    raise BagError(f"the bag's camera_info cannot be used ({problem}); give the camera with --camera-info")
+
+
+def _stamp(stamp: Any) -> float:
+    return stamp.sec + stamp.nanosec * 1e-9
+
+
+def _write_outputs(writer: Writer, outputs: dict, typestore: Any, timestamp: int, header: Any, detection: Any,
+                   state: State, pwm: tuple[int, int, int, int]) -> None:
+    t = typestore.types
+    header_out = t["std_msgs/msg/Header"](stamp=t["builtin_interfaces/msg/Time"](
+        sec=header.stamp.sec, nanosec=header.stamp.nanosec), frame_id=header.frame_id)
+
+    def put(topic: str, message: Any) -> None:
+        writer.write(outputs[topic], timestamp, typestore.serialize_cdr(message, OUTPUT_TOPICS[topic]))
+
+    point = t["geometry_msgs/msg/Point"]
+    stamped = t["geometry_msgs/msg/PointStamped"]
+    if detection.found and detection.pose is not None:
+        p = detection.pose
+        put("/replay/dock/target", stamped(header=header_out, point=point(x=p.offset_x_m, y=p.offset_y_m, z=p.range_m)))
+        put("/replay/dock/center_px", stamped(header=header_out, point=point(
+            x=float(detection.u), y=float(detection.v), z=float(detection.radius_px))))
+    put("/replay/dock/detected", t["std_msgs/msg/Bool"](data=bool(detection.found)))
+    put("/replay/guidance/state", t["std_msgs/msg/String"](data=state.value))
+    layout = t["std_msgs/msg/MultiArrayLayout"](dim=[], data_offset=0)
+    put("/replay/thrusters/command", t["std_msgs/msg/UInt16MultiArray"](
+        layout=layout, data=np.array(pwm, dtype=np.uint16)))
+
+
+@dataclass
+class Comparison:
+    frames_a: int
+    frames_b: int
+    matched: int
+    center_px_max: float
+    range_rel_max: float
+    command_us_max: int
+    detection_mismatches: int
+    problems: list[str]
+
+
+def _outputs_by_time(bag: Path) -> dict[str, dict[int, Any]]:
+    """Replay outputs per topic, keyed by the bag time of the camera frame they came from."""
+    if not bag.exists():
+        raise BagError(f"{bag}: no such bag")
+    found: dict[str, dict[int, Any]] = {t: {} for t in OUTPUT_TOPICS}
+    try:
+        with AnyReader([bag]) as reader:
+            conns = [c for c in reader.connections if c.topic in OUTPUT_TOPICS]
+            if not conns:
+                raise BagError(f"{bag} holds no /replay/ topics: is it the output of auv-dock replay?")
+            for connection, timestamp, raw in reader.messages(connections=conns):
+                found[connection.topic][timestamp] = reader.deserialize(raw, connection.msgtype)
+    except BagError:
+        raise
+    except Exception as exc:
+        raise BagError(f"{bag}: cannot read ({exc})") from exc
+    return found
+
+
+def compare(a: Path, b: Path, center_px: float = 1.0, range_pct: float = 2.0, command_us: int = 10) -> Comparison:
+    """Two replay outputs frame by frame: detections, centre, range and thruster command."""
+    oa, ob = _outputs_by_time(a), _outputs_by_time(b)
+    problems: list[str] = []
+    da, db = oa["/replay/dock/detected"], ob["/replay/dock/detected"]
+    keys = sorted(set(da) & set(db))
+    mismatches = [k for k in keys if da[k].data != db[k].data]
+    for k in mismatches[:5]:
+        problems.append(f"t={k * 1e-9:.3f}: detected {da[k].data} vs {db[k].data}")
+    centre_max = range_max = 0.0
+    for k in sorted(set(oa["/replay/dock/center_px"]) & set(ob["/replay/dock/center_px"])):
+        pa, pb = oa["/replay/dock/center_px"][k].point, ob["/replay/dock/center_px"][k].point
+        d = math.hypot(pa.x - pb.x, pa.y - pb.y)
+        centre_max = max(centre_max, d)
+        if d > center_px and len(problems) < 20:
+            problems.append(f"t={k * 1e-9:.3f}: centre differs by {d:.2f} px")
+    for k in sorted(set(oa["/replay/dock/target"]) & set(ob["/replay/dock/target"])):
+        ra, rb = oa["/replay/dock/target"][k].point.z, ob["/replay/dock/target"][k].point.z
+        rel = abs(ra - rb) / max(abs(ra), 1e-9)
+        range_max = max(range_max, rel)
+        if 100 * rel > range_pct and len(problems) < 20:
+            problems.append(f"t={k * 1e-9:.3f}: range {ra:.3f} vs {rb:.3f} m")
+    command_max = 0
+    ca, cb = oa["/replay/thrusters/command"], ob["/replay/thrusters/command"]
+    for k in sorted(set(ca) & set(cb)):
+        diff = int(np.max(np.abs(ca[k].data.astype(int) - cb[k].data.astype(int))))
+        command_max = max(command_max, diff)
+        if diff > command_us and len(problems) < 20:
+            problems.append(f"t={k * 1e-9:.3f}: thruster command differs by {diff} us")
+    if len(da) != len(db):
+        problems.append(f"frame counts differ: {len(da)} vs {len(db)}")
+    return Comparison(len(da), len(db), len(keys), centre_max, range_max, command_max, len(mismatches), problems)

@@ -1,0 +1,113 @@
+"""Replay of the committed fixture bag against its golden output, and bags that are not right."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.typesys import Stores, get_typestore
+
+from auv_dock_guidance.cli.main import main
+from auv_dock_guidance.replay import BagError, compare, replay
+from auv_dock_guidance.vision.detector import DetectorConfig
+
+FIXTURES = Path(__file__).resolve().parents[1] / "fixtures"
+BAG, GOLDEN = FIXTURES / "approach_bag", FIXTURES / "approach_golden"
+
+
+def test_fixture_replays_like_its_golden_output(tmp_path, capsys):
+    out = tmp_path / "replay"
+    assert main(["replay", str(BAG), "--output", str(out), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["frames"] == 30 and report["detection_rate"] >= 0.9
+    assert any("SEARCH -> TRACK" in t for t in report["transitions"])
+    assert main(["compare", str(GOLDEN), str(out)]) == 0, capsys.readouterr().out
+
+
+def test_output_keeps_the_input_topics_beside_the_replay_ones(tmp_path):
+    from rosbags.highlevel import AnyReader
+
+    replay(BAG, tmp_path / "out")
+    with AnyReader([tmp_path / "out"]) as reader:
+        topics = {c.topic for c in reader.connections}
+    assert {"/camera/image_raw/compressed", "/replay/dock/target", "/replay/thrusters/command"} <= topics
+
+
+def test_compare_flags_a_regression(tmp_path):
+    replay(BAG, tmp_path / "wider", copy_inputs=False, detector_config=DetectorConfig(marker_radius_m=0.40))
+    result = compare(GOLDEN, tmp_path / "wider")
+    assert result.range_rel_max > 0.1
+    assert any("range" in p for p in result.problems)
+
+
+def test_missing_or_non_bag_paths_are_refused(tmp_path):
+    with pytest.raises(BagError, match="no such bag"):
+        replay(tmp_path / "nothing", None)
+    junk = tmp_path / "junk.mcap"
+    junk.write_bytes(b"not a bag at all" * 10)
+    with pytest.raises(BagError, match="cannot open"):
+        replay(junk, None)
+
+
+def test_existing_output_is_never_overwritten(tmp_path):
+    (tmp_path / "taken").mkdir()
+    with pytest.raises(BagError, match="never writes over"):
+        replay(BAG, tmp_path / "taken")
+
+
+def test_truncated_bag_is_processed_up_to_the_damage(tmp_path):
+    damaged = tmp_path / "damaged"
+    shutil.copytree(BAG, damaged)
+    data_file = next(damaged.glob("*.mcap"))
+    data_file.write_bytes(data_file.read_bytes()[: data_file.stat().st_size // 2])
+    try:
+        summary = replay(damaged, None)
+    except BagError as exc:  # a reader that cannot even index it must say so clearly
+        assert "cannot open" in str(exc)
+        return
+    assert 0 < summary.frames < 30
+    assert summary.damage
+
+
+def _bag_with_images(path: Path, encoding: str) -> None:
+    ts = get_typestore(Stores.ROS2_JAZZY)
+    t = ts.types
+    writer = Writer(path, version=9, storage_plugin=StoragePlugin.MCAP)
+    writer.open()
+    conn = writer.add_connection("/camera/image_raw", "sensor_msgs/msg/Image", typestore=ts)
+    for i in range(3):
+        header = t["std_msgs/msg/Header"](stamp=t["builtin_interfaces/msg/Time"](sec=i, nanosec=0), frame_id="cam")
+        msg = t["sensor_msgs/msg/Image"](header=header, height=4, width=4, encoding=encoding, is_bigendian=0,
+                                         step=8, data=np.zeros(32, np.uint8))
+        writer.write(conn, i * 10**9, ts.serialize_cdr(msg, "sensor_msgs/msg/Image"))
+    writer.close()
+
+
+def test_bag_without_camera_info_needs_a_camera_file(tmp_path):
+    _bag_with_images(tmp_path / "bag", "16UC1")
+    with pytest.raises(BagError, match="--camera-info"):
+        replay(tmp_path / "bag", None)
+
+
+def test_wrong_image_encoding_is_counted_not_fatal(tmp_path):
+    _bag_with_images(tmp_path / "bag", "16UC1")
+    camera = tmp_path / "cam.yaml"
+    camera.write_text((Path(__file__).resolve().parents[2] / "config" / "camera_info.yaml").read_text())
+    summary = replay(tmp_path / "bag", None, camera_file=camera)
+    assert summary.frames == 3 and summary.bad_frames == 3
+    assert "encoding" in summary.damage
+
+
+def test_bag_without_a_camera_topic_names_what_it_has(tmp_path):
+    ts = get_typestore(Stores.ROS2_JAZZY)
+    writer = Writer(tmp_path / "bag", version=9, storage_plugin=StoragePlugin.MCAP)
+    writer.open()
+    conn = writer.add_connection("/chatter", "std_msgs/msg/String", typestore=ts)
+    writer.write(conn, 1, ts.serialize_cdr(ts.types["std_msgs/msg/String"](data="hi"), "std_msgs/msg/String"))
+    writer.close()
+    with pytest.raises(BagError, match="/chatter"):
+        replay(tmp_path / "bag", None)
