@@ -20,6 +20,7 @@ out of the fit.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -61,6 +62,8 @@ class DetectorConfig:
     search_gaps_px: tuple[int, ...] = (0, 32, 96)  # LED gaps bridged when grouping (full-res px)
     refine_radius_px: float = 90.0  # refine at a resolution where the ring is about this large
     bilateral: BilateralParams = BilateralParams(diameter=5, sigma_color=30.0, sigma_space=3.0)
+    tracking: bool = False  # look near the last marker first; search the whole frame when lost
+    full_search_every: int = 15  # while tracking, still search the whole frame this often (frames)
     canny_low: float = 0.04  # hysteresis thresholds as shares of the region's contrast, per px
     canny_high: float = 0.10
     threshold: ThresholdConfig = field(default_factory=ThresholdConfig)
@@ -75,6 +78,8 @@ class DetectorConfig:
             raise ConfigError(f"search_scale {self.search_scale} must be in [0.05, 1]")
         if self.search_background_px < 3 or self.max_candidates < 1 or self.refine_radius_px < 16:
             raise ConfigError("search_background_px >= 3, max_candidates >= 1, refine_radius_px >= 16")
+        if self.full_search_every < 1:
+            raise ConfigError(f"full_search_every {self.full_search_every} must be at least 1")
         if not 0 < self.canny_low <= self.canny_high:
             raise ConfigError(f"need 0 < canny_low <= canny_high, got {self.canny_low}, {self.canny_high}")
 
@@ -116,19 +121,42 @@ class Detector:
         self.camera = camera
         self.config = config
         self.threshold = AdaptiveThreshold(config.threshold)
+        self._last: Detection | None = None  # the previous frame's marker, for tracking
+        self._frames = 0
 
     def reset(self) -> None:
         self.threshold.reset()
+        self._last = None
+        self._frames = 0
 
     # ------------------------------------------------------------------ main entry
     def detect(self, image: np.ndarray) -> Detection:
+        image = self._checked(image)
+        detection = None
+        self._frames += 1
+        tracking = self.config.tracking and self._last is not None
+        if tracking and self._frames % self.config.full_search_every != 0:
+            assert self._last is not None
+            detection = self._detect_in(image, [self._track_window(image, self._last)])
+            if not detection.found:
+                detection = None  # lost: search the whole frame
+        if detection is None:
+            detection = self._detect_in(image, self._search(image))
+        self.threshold.update(detection.radius_px if detection.found else None)
+        self._last = detection if detection.found else None
+        return detection
+
+    def _checked(self, image: np.ndarray) -> np.ndarray:
         image = as_bgr_or_gray8(image)
         if self.camera is not None and image.shape[:2] != (self.camera.height, self.camera.width):
             raise ConfigError(
                 f"image is {image.shape[1]}x{image.shape[0]} but the camera model is "
                 f"{self.camera.width}x{self.camera.height}"
             )
-        boxes = self._search(image)
+        return image
+
+    def _detect_in(self, image: np.ndarray, boxes: list[tuple[tuple[int, int, int, int], float]]) -> Detection:
+        """Refine each window, choose among what passed the gates (paper Fig. 5), fit the choice."""
         regions: list[_Region] = []
         rejected: list[str] = []
         for box, radius_estimate in boxes:
@@ -137,12 +165,18 @@ class Detector:
                     regions.append(region)
         best = choose([r.shape for r in regions], self.config.selection)
         if best is None:
-            self.threshold.update(None)
             reason = "no bright region" if not boxes else "rejected: " + "; ".join(sorted(set(rejected))[:3])
             return Detection(found=False, reason=reason)
-        detection = self._fit(regions[best], len(regions))
-        self.threshold.update(detection.radius_px if detection.found else None)
-        return detection
+        return self._fit(regions[best], len(regions))
+
+    def _track_window(self, image: np.ndarray, last: Detection) -> tuple[tuple[int, int, int, int], float]:
+        """A window around the last detection, wide enough for the ring to move between frames."""
+        h, w = image.shape[:2]
+        r = max(last.radius_px, last.mec_radius_px if math.isfinite(last.mec_radius_px) else 0.0)
+        half = 1.5 * r + 24
+        box = (max(0, int(last.u - half)), max(0, int(last.v - half)),
+               min(w, int(math.ceil(last.u + half))), min(h, int(math.ceil(last.v + half))))
+        return box, r
 
     # ------------------------------------------------------------------ stage 1
     def _search(self, image: np.ndarray) -> list[tuple[tuple[int, int, int, int], float]]:
@@ -515,3 +549,30 @@ def _radial_residual(ellipse: Ellipse, xy: np.ndarray) -> np.ndarray:
     yr = (-rel[:, 0] * s + rel[:, 1] * c) / ellipse.semi_minor
     rho = np.hypot(xr, yr)
     return (rho - 1.0) * np.sqrt(ellipse.semi_major * ellipse.semi_minor)
+
+
+class PaperBaseline(Detector):
+    """The paper's pipeline applied literally to the whole full-resolution frame.
+
+    Bilateral filter (d = 9) and improved Canny over all 1920x1080 pixels, the adaptive
+    threshold, closed contours, largest/lowest choice and the same fits: the reference
+    that `auv-dock bench` measures our search-and-refine and tracking modes against,
+    for speed and for agreement.
+    """
+
+    def __init__(self, camera: CameraModel | None = None, config: DetectorConfig = DetectorConfig()) -> None:
+        literal = dataclasses.replace(
+            config, refine_radius_px=1e9, tracking=False,
+            bilateral=BilateralParams(diameter=9, sigma_color=config.bilateral.sigma_color,
+                                      sigma_space=config.bilateral.sigma_space),
+        )
+        super().__init__(camera, literal)
+
+    def detect(self, image: np.ndarray) -> Detection:
+        image = self._checked(image)
+        h, w = image.shape[:2]
+        radius = self._last.radius_px if self._last is not None else self.config.threshold.reference_radius_px
+        detection = self._detect_in(image, [((0, 0, w, h), radius)])
+        self.threshold.update(detection.radius_px if detection.found else None)
+        self._last = detection if detection.found else None
+        return detection
