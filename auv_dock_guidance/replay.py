@@ -189,6 +189,7 @@ def replay(
             nav = Attitude(stamp, nav.roll_rad, nav.pitch_rad, nav.yaw_rad, nav.depth_m)
             target = None
             pose = detection.pose
+            guidance.frame_processed(stamp)
             if detection.found and pose is not None:
                 summary.detections += 1
                 target = Target(stamp, pose.range_m, pose.offset_x_m, pose.offset_y_m)

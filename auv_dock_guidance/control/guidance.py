@@ -2,7 +2,7 @@
 
 States:
 
-* SEARCH: no confirmed marker. Hold heading, level, no forward thrust.
+* SEARCH: no confirmed marker. Neutral thrust (the main controller keeps the vehicle level).
 * TRACK: the marker is confirmed (``confirm_frames`` frames in a row with it; a frame
   without it, reported by ``marker_missed()``, starts the count again); the cascade
   steers towards it at the scheduled speed.
@@ -14,10 +14,13 @@ States:
   ``blind_range_m`` (where it should be in view) for ``terminal_lost_timeout_s``: ABORT.
 * DOCKED: the main controller reports the latch, or in TERMINAL the dead-reckoned run
   since the last sighting covers the last range plus a margin.
-* ABORT: marker lost too long, search timed out, telemetry stale while driving (TRACK,
-  TERMINAL), attitude out of limits. Neutral thrust until ``reset()`` (re-arm).
+* ABORT: marker lost too long, search timed out, telemetry stale or no camera frame
+  while driving (TRACK, TERMINAL), attitude out of limits. Neutral thrust. An ABORT for
+  lost telemetry or camera returns to SEARCH once both have been healthy for
+  ``recovery_s``; the others wait for ``reset()`` (re-arm).
 
-Without fresh telemetry nothing but neutral is ever commanded, in any state.
+Only TRACK and TERMINAL ever command thrust, and only with fresh telemetry and a live
+camera (when the caller reports frames with ``frame_processed``).
 
 SEARCH can only reach TERMINAL through TRACK. Every transition is returned once, with
 its reason, for the caller to log.
@@ -53,6 +56,8 @@ class GuidanceConfig:
     terminal_max_bearing_jump_rad: float = math.radians(4)  # larger jumps between frames in TERMINAL are ignored
     dock_margin_m: float = 0.3  # dead-reckoned run past the last range that counts as docked
     telemetry_timeout_s: float = 0.5
+    camera_timeout_s: float = 1.0  # no processed frame this long while driving: ABORT
+    recovery_s: float = 2.0  # a camera or telemetry ABORT clears after this long healthy
     detection_max_age_s: float = 0.5  # an older detection is not acted on
     max_roll_rad: float = math.radians(20)
     max_pitch_rad: float = math.radians(40)
@@ -63,7 +68,7 @@ class GuidanceConfig:
         positive = (
             self.terminal_range_m, self.track_lost_timeout_s, self.terminal_lost_timeout_s, self.search_timeout_s,
             self.telemetry_timeout_s, self.detection_max_age_s, self.max_roll_rad, self.max_pitch_rad,
-            self.blind_range_m,
+            self.blind_range_m, self.camera_timeout_s, self.recovery_s,
         )
         if not all(math.isfinite(v) and v > 0 for v in positive) or self.confirm_frames < 1 or self.dock_margin_m < 0:
             raise ConfigError("guidance timeouts, ranges and limits must be positive numbers, confirm_frames >= 1")
@@ -112,8 +117,27 @@ class Guidance:
         self._streak = 0
         self._last_target: Target | None = None  # the last detection steered by
         self._last_seen_s: float | None = None  # the last detection of any kind
+        self._last_frame_s: float | None = None  # the last processed frame (None: not reported)
+        self._abort_kind: str | None = None  # "camera" or "telemetry" aborts clear by themselves
+        self._healthy_since: float | None = None
         self._last_time: float | None = None
         self._run_since_sighting = 0.0
+
+    def _maybe_recover(self, now_s: float, attitude: Attitude | None) -> Transition | None:
+        """Leave an ABORT caused by lost telemetry or camera once both have been healthy a while."""
+        if self._abort_kind is None:
+            return None
+        healthy = attitude is not None and not self._camera_silent(now_s)
+        if not healthy:
+            self._healthy_since = None
+            return None
+        self._healthy_since = self._healthy_since if self._healthy_since is not None else now_s
+        if now_s - self._healthy_since < self.config.recovery_s:
+            return None
+        kind, self._abort_kind, self._healthy_since = self._abort_kind, None, None
+        self.state, self._since, self._streak = State.SEARCH, now_s, 0
+        self.cascade.reset()
+        return Transition(now_s, State.ABORT, State.SEARCH, f"{kind} healthy again for {self.config.recovery_s:.1f} s")
 
     def _plausible_in_terminal(self, target: Target) -> bool:
         """Close in, the ring leaves the frame and a partial ring gives a wild bearing: ignore those."""
@@ -129,6 +153,14 @@ class Guidance:
     def marker_missed(self) -> None:
         """A camera frame came without the marker: confirmation starts again."""
         self._streak = 0
+
+    def frame_processed(self, now_s: float) -> None:
+        """The detector processed a frame (marker or not): the camera is alive."""
+        self._last_frame_s = now_s
+
+    def _camera_silent(self, now_s: float) -> bool:
+        last = self._last_frame_s
+        return last is not None and now_s - last > self.config.camera_timeout_s
 
     @property
     def last_target(self) -> Target | None:
@@ -147,21 +179,23 @@ class Guidance:
             target = None
         if target is not None:
             self._last_seen_s = now_s
+            if self._last_frame_s is not None:  # the caller reports frames: a detection is one
+                self._last_frame_s = now_s
         if target is not None and self.state is State.TERMINAL and not self._plausible_in_terminal(target):
             target = None  # seen, but a partial ring: hold the last good goal
         if attitude is not None and (not attitude.is_valid() or now_s - attitude.stamp_s > c.telemetry_timeout_s):
             attitude = None
         transition = self._next_state(now_s, target, attitude, docked_signal)
-        if self.state in (State.ABORT, State.DOCKED) or attitude is None:
+        if self.state in (State.ABORT, State.DOCKED) or attitude is None or self._camera_silent(now_s):
             return GuidanceOutput(self.state, self.mixer.neutral(), None, transition)
         if target is not None:
             self._last_target = target
             self._run_since_sighting = 0.0
             self.cascade.on_target(target, attitude)
         if self.state is State.SEARCH:
-            if self.cascade.setpoint is None or target is None:
-                self.cascade.hold(attitude.yaw_rad, 0.0)
-            demands = self.cascade.update(attitude, now_s, 0.0)
+            # No thrust without a confirmed marker: the main controller keeps the vehicle level.
+            self.cascade.reset()
+            return GuidanceOutput(self.state, self.mixer.neutral(), None, transition)
         else:
             seen = self._last_target.range_m - self._run_since_sighting if self._last_target else None
             speed = self.cascade.speed_for_range(seen)
@@ -183,13 +217,20 @@ class Guidance:
             self._streak = 0
         reason = None
         new_state = previous
-        if previous in (State.ABORT, State.DOCKED):
+        if previous is State.DOCKED:
             return None
+        if previous is State.ABORT:
+            return self._maybe_recover(now_s, attitude)
         if attitude is None:
             if previous in (State.TRACK, State.TERMINAL):
                 new_state, reason = State.ABORT, "telemetry from the main controller is stale or invalid"
+                self._abort_kind = "telemetry"
             else:
                 self._streak = 0  # no tracking without navigation
+        elif self._camera_silent(now_s) and previous in (State.TRACK, State.TERMINAL):
+            new_state = State.ABORT
+            reason = f"no camera frame for {now_s - (self._last_frame_s or now_s):.1f} s"
+            self._abort_kind = "camera"
         elif abs(attitude.roll_rad) > c.max_roll_rad or abs(attitude.pitch_rad) > c.max_pitch_rad:
             new_state = State.ABORT
             reason = f"attitude out of limits (roll {math.degrees(attitude.roll_rad):.0f} deg, " \

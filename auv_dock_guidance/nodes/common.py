@@ -77,6 +77,10 @@ def run_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except RuntimeError:
+        if rclpy.ok():
+            raise
+        # Ctrl-C shut the context down while the executor was taking a message: a clean stop.
     except (DockGuidanceError, InvalidParameterValueException) as exc:
         print(f"error: {exc}", file=sys.stderr, flush=True)
         code = 2

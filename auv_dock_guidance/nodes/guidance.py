@@ -41,6 +41,8 @@ PARAMS = [
           0.1, 60.0),
     Param("search_timeout_s", 120.0, "no marker this long: abort (s)", 1.0, 3600.0),
     Param("telemetry_timeout_s", 0.5, "telemetry older than this: abort (s)", 0.05, 10.0),
+    Param("camera_timeout_s", 1.0, "no processed camera frame this long while driving: abort (s)", 0.1, 10.0),
+    Param("recovery_s", 2.0, "a camera or telemetry abort clears after this long healthy (s)", 0.1, 60.0),
     Param("cruise_speed_mps", 0.41, "approach speed (m/s)", 0.0, 3.0),
     Param("terminal_speed_mps", 0.25, "speed in the terminal phase (m/s)", 0.0, 3.0),
     Param("full_thrust_speed_mps", 1.0, "steady speed at full surge thrust (m/s)", 0.1, 5.0),
@@ -66,6 +68,7 @@ def guidance_config(v: dict[str, Any], mixer: MixerConfig) -> GuidanceConfig:
         confirm_frames=v["confirm_frames"], terminal_range_m=v["terminal_range_m"], blind_range_m=v["blind_range_m"],
         track_lost_timeout_s=v["track_lost_timeout_s"], terminal_lost_timeout_s=v["terminal_lost_timeout_s"],
         search_timeout_s=v["search_timeout_s"], telemetry_timeout_s=v["telemetry_timeout_s"],
+        camera_timeout_s=v["camera_timeout_s"], recovery_s=v["recovery_s"],
         cascade=cascade, mixer=mixer,
     )
 
@@ -117,6 +120,7 @@ class GuidanceNode(Node):
         self._docked = msg.data
 
     def _on_detected(self, msg: Bool) -> None:
+        self.guidance.frame_processed(self.get_clock().now().nanoseconds * 1e-9)
         if not msg.data:
             self.guidance.marker_missed()
 

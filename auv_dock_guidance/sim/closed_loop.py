@@ -113,6 +113,7 @@ def run_episode(config: EpisodeConfig, seed: int) -> EpisodeResult:
             spec = world.scene_for(vehicle.pose, seed=seed * 100000 + frame)
             image, truth = render(camera, spec)
             detection = detector.detect(image)
+            guidance.frame_processed(t)
             pose = detection.pose
             if detection.found and pose is not None:
                 target = Target(t, pose.range_m, pose.offset_x_m, pose.offset_y_m)
