@@ -66,16 +66,26 @@ class NodeGroup:
         for name in self.nodes:
             if name not in NODE_MODULES:
                 raise ValueError(f"unknown node {name!r}; known: {', '.join(NODE_MODULES)}")
-            out: Any = None
-            if self.log_dir is not None:
-                self.log_dir.mkdir(parents=True, exist_ok=True)
-                out = open(self.log_dir / f"{name}.log", "wb")
-                self._logs.append(out)
-            self.processes[name] = subprocess.Popen(
-                self.command(name), env=self.env, stdout=out, stderr=subprocess.STDOUT if out else None,
-                stdin=subprocess.DEVNULL, start_new_session=True,
-            )
+            self._spawn(name, "wb")
         return self
+
+    def restart(self, name: str) -> None:
+        """Start one node again (after it died or was killed); its log continues."""
+        process = self.processes.get(name)
+        if process is not None and process.poll() is None:
+            raise RuntimeError(f"{name} is still running")
+        self._spawn(name, "ab")
+
+    def _spawn(self, name: str, log_mode: str) -> None:
+        out: Any = None
+        if self.log_dir is not None:
+            self.log_dir.mkdir(parents=True, exist_ok=True)
+            out = open(self.log_dir / f"{name}.log", log_mode)
+            self._logs.append(out)
+        self.processes[name] = subprocess.Popen(
+            self.command(name), env=self.env, stdout=out, stderr=subprocess.STDOUT if out else None,
+            stdin=subprocess.DEVNULL, start_new_session=True,
+        )
 
     def exited(self) -> dict[str, int]:
         return {n: p.returncode for n, p in self.processes.items() if p.poll() is not None}

@@ -12,18 +12,13 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
-import random
 import time
 from datetime import datetime
 from pathlib import Path
 
 from auv_dock_guidance.cli.common import fail
-from auv_dock_guidance.launcher import NodeGroup, ros_environment
 from auv_dock_guidance.sim.closed_loop import EpisodeResult, entry_outcome
-from auv_dock_guidance.sim.main_controller import MainControllerSim
 from auv_dock_guidance.sim.monte_carlo import plot
-from auv_dock_guidance.sim.vehicle import AuvDynamics
 from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
 
 
@@ -46,9 +41,8 @@ def run(args: argparse.Namespace) -> int:
     from geometry_msgs.msg import Vector3Stamped
     from std_msgs.msg import String
 
-    from auv_dock_guidance.nodes.conversions import seconds_stamp, vehicle_to_pose
     from auv_dock_guidance.recording import DEBUG_TOPICS, BagRecorder
-    from geometry_msgs.msg import PoseStamped
+    from auv_dock_guidance.sim_system import SimulatedSystem
 
     report = Path(args.report or f"reports/demo-{datetime.now():%Y%m%d-%H%M%S}")
     if report.exists() and any(report.iterdir()):
@@ -56,22 +50,8 @@ def run(args: argparse.Namespace) -> int:
     report.mkdir(parents=True, exist_ok=True)
     world = PoolWorld(reflection=args.scenario == "reflection")
     start = VehiclePose(x=world.dock_x_m - 12.0, y=1.0, z=-world.dock_depth_m + 0.5, yaw=math.radians(5.0))
-    vehicle = AuvDynamics(start, seed=7)
-    controller = MainControllerSim(vehicle=vehicle).start()
-    domain = random.Random(os.getpid()).randint(30, 200)
-    group = NodeGroup(
-        ["camera_ingest", "detector", "guidance", "serial_bridge"],
-        overrides={
-            "camera_ingest": {"source": "sim", "sim_reflection": world.reflection},
-            "serial_bridge": {"port": controller.port, "arm_on_start": True},
-        },
-        env=ros_environment(domain_id=domain),
-        log_dir=report / "logs",
-    )
-    rclpy.init(domain_id=domain)
-    node = rclpy.create_node("demo_simulator")
-    pose_pub = node.create_publisher(PoseStamped, "sim/vehicle_pose", 1)
-    node.create_timer(1 / 30, lambda: pose_pub.publish(vehicle_to_pose(vehicle.pose, seconds_stamp(time.time()))))
+    system = SimulatedSystem(world, start, report / "logs")
+    node, vehicle = system.node, system.vehicle
     seen = {"state": "starting", "bearing": None}
     node.create_subscription(String, "guidance/state", lambda m: seen.__setitem__("state", m.data), 10)
     node.create_subscription(String, "guidance/transition", lambda m: print(f"  guidance: {m.data}", flush=True), 10)
@@ -84,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
 
     node.create_subscription(Vector3Stamped, "dock/bearing", on_bearing, 10)
     recorder = BagRecorder(node, report / "debug_bag", DEBUG_TOPICS)
-    group.start()
+    system.start()
     print(f"demo: {args.scenario} pool, vehicle 12 m out, 1 m to the side, 0.5 m above the dock; report in {report}",
           flush=True)
     trajectory: list[tuple[float, float, float, float, float]] = []
@@ -100,25 +80,22 @@ def run(args: argparse.Namespace) -> int:
                 b = seen["bearing"]
                 sight = f"range {b.z:5.2f} m  yaw {math.degrees(b.x):+6.2f}  pitch {math.degrees(b.y):+6.2f} deg" \
                     if b is not None else "no marker yet"
-                print(f"  t={elapsed:5.1f} s  {seen['state']:<9} {sight}  (to dock {world.dock_x_m - world.camera_position(p)[0]:5.2f} m)",
-                      flush=True)
-            if world.camera_position(p)[0] >= world.dock_x_m:
+                to_dock = world.dock_x_m - world.camera_position(p)[0]
+                print(f"  t={elapsed:5.1f} s  {seen['state']:<9} {sight}  (to dock {to_dock:5.2f} m)", flush=True)
+            if system.nose_past_dock():
                 outcome, lateral, heading = entry_outcome(world, p)
                 break
             if seen["state"] == "ABORT":
                 outcome = "abort"
                 break
-            if group.exited():
-                outcome = f"node stopped: {group.exited()}"
+            if system.group.exited():
+                outcome = f"node stopped: {system.group.exited()}"
                 break
     except KeyboardInterrupt:
         outcome = "interrupted"
     duration = time.monotonic() - t0
     recorder.close()
-    node.destroy_node()
-    rclpy.try_shutdown()
-    codes = group.stop()
-    controller.stop()
+    codes = system.stop()
     result = EpisodeResult(0, outcome == "docked", outcome, duration, lateral, heading, None,
                            trajectory[::5], bearings, [])
     plots = plot([result], report, world.dock_x_m, world.dock_depth_m, world.entrance_radius_m, title="demo")

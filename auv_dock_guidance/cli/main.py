@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from auv_dock_guidance import __version__
-from auv_dock_guidance.cli import bag, bench, calibrate, demo, detect, evaluate, link, run, simulate
+from auv_dock_guidance.cli import bag, bench, calibrate, demo, detect, evaluate, link, run, simulate, soak
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -26,6 +26,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_parser(subparsers)
     simulate.add_parser(subparsers)
     bag.add_parsers(subparsers)
+    soak.add_parser(subparsers)
     return parser
 
 

@@ -8,6 +8,7 @@ Publishes   thrusters/command (std_msgs/UInt16MultiArray: pulse widths in us for
             guidance/setpoint (geometry_msgs/Vector3Stamped: x yaw rad, y pitch rad, z speed m/s;
             stamped with the camera frame that produced it),
             guidance/state (std_msgs/String), guidance/transition (std_msgs/String, latched)
+Service     guidance/reset (std_srvs/Trigger): back to SEARCH (re-arm after DOCKED or ABORT)
 A new target is acted on at once (lowest latency); a timer runs the inner loop between frames.
 """
 
@@ -21,6 +22,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from sensor_msgs.msg import Imu
 from std_msgs.msg import Bool, Float64, MultiArrayDimension, String, UInt16MultiArray
+from std_srvs.srv import Trigger
 
 from auv_dock_guidance.control.cascade import CascadeConfig, Target
 from auv_dock_guidance.control.guidance import Guidance, GuidanceConfig, GuidanceOutput
@@ -92,6 +94,7 @@ class GuidanceNode(Node):
         self.state_pub = self.create_publisher(String, "guidance/state", 10)
         latched = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.transition_pub = self.create_publisher(String, "guidance/transition", latched)
+        self.create_service(Trigger, "guidance/reset", self._on_reset)
         self.create_timer(1.0 / self.values["control_rate_hz"], self._on_timer)
         self.create_timer(1.0, self._publish_state)
         self._attitude = None
@@ -118,6 +121,15 @@ class GuidanceNode(Node):
 
     def _on_docked(self, msg: Bool) -> None:
         self._docked = msg.data
+
+    def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        previous = self.guidance.state
+        self.guidance.reset()
+        line = f"{previous.value} -> SEARCH: reset by the guidance/reset service"
+        self.get_logger().info(line)
+        self.transition_pub.publish(String(data=line))
+        response.success, response.message = True, line
+        return response
 
     def _on_detected(self, msg: Bool) -> None:
         self.guidance.frame_processed(self.get_clock().now().nanoseconds * 1e-9)

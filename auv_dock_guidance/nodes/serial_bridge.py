@@ -8,8 +8,9 @@ Publishes   vehicle/imu (sensor_msgs/Imu, REP 103), vehicle/depth (std_msgs/Floa
             bridge/latency (std_msgs/Float64: camera frame -> command on the wire, s),
             /diagnostics (1 Hz: link health, failsafe events, CRC errors)
 Service     bridge/arm (std_srvs/SetBool)
-Only the guidance node's topic drives the thrusters, and only while armed; with no fresh
-command for failsafe_timeout_s the bridge sends neutral on every tick.
+Only the guidance node's topic drives the thrusters, and only while armed: if any other
+node publishes on it, the bridge disarms and says so. With no fresh command for
+failsafe_timeout_s the bridge sends neutral on every tick.
 """
 
 from __future__ import annotations
@@ -75,6 +76,10 @@ class SerialBridgeNode(Node):
         self.create_service(SetBool, "bridge/arm", self._on_arm)
         self.create_timer(1.0 / self.values["tick_rate_hz"], self._on_tick)
         self.create_timer(1.0, self._publish_diagnostics)
+        self.create_timer(0.5, self._check_command_publishers)
+        self._foreign: list[str] = []
+        self._checked_at = -math.inf
+        self._unnamed = 0
         self._frame_stamp: float | None = None  # camera frame behind the newest setpoint
         self._timed_stamp: float | None = None
         self._last_telemetry_seq: int | None = None
@@ -111,7 +116,30 @@ class SerialBridgeNode(Node):
     def _on_setpoint(self, msg: Vector3Stamped) -> None:
         self._frame_stamp = stamp_seconds(msg.header.stamp)
 
+    def _check_command_publishers(self) -> None:
+        """Only the guidance node may drive the thrusters: anyone else publishing disarms the bridge."""
+        topic = "guidance/demands" if self.mavlink is not None else "thrusters/command"
+        publishers = self.get_publishers_info_by_topic(topic)
+        # A publisher still being discovered has no name yet: not trusted, not yet condemned.
+        self._unnamed = sum(i.node_name == "_NODE_NAME_UNKNOWN_" for i in publishers)
+        names = [f"{i.node_namespace.rstrip('/')}/{i.node_name}" for i in publishers
+                 if i.node_name != "_NODE_NAME_UNKNOWN_"]
+        foreign = sorted(n for n in names if n.rsplit("/", 1)[-1] != "guidance")
+        if foreign and foreign != self._foreign:
+            self.get_logger().error(f"{topic} has publishers other than guidance ({', '.join(foreign)}): disarmed")
+            self._set_armed(False, "foreign publisher on " + topic)
+        self._foreign = foreign
+        self._checked_at = time.monotonic()
+
+    def _sender_trusted(self) -> bool:
+        """Check the publishers before acting on a command (at most twice a second)."""
+        if self._unnamed or time.monotonic() - self._checked_at > 0.5:
+            self._check_command_publishers()
+        return not self._foreign and not self._unnamed
+
     def _on_command(self, msg: UInt16MultiArray) -> None:
+        if not self._sender_trusted():
+            return  # refused while anyone but guidance publishes commands
         if len(msg.data) != 4:
             self.get_logger().error(f"thruster command with {len(msg.data)} values ignored (need 4)",
                                     throttle_duration_sec=5.0)
@@ -121,6 +149,8 @@ class SerialBridgeNode(Node):
 
     def _on_demands(self, msg: Vector3Stamped) -> None:
         assert self.mavlink is not None
+        if not self._sender_trusted():
+            return
         v = msg.vector
         self.bridge.command([1500.0] * 4)  # keeps the failsafe clock; the pulses go out as RC override
         if self.bridge.armed:
@@ -182,8 +212,10 @@ class SerialBridgeNode(Node):
             ("failsafe_events", s.failsafe_events), ("commands_sent", s.commands_sent),
             ("rejected_values", s.rejected_values), ("frames_received", d.frames), ("crc_errors", d.crc_errors),
             ("bytes_dropped", d.bytes_dropped), ("reconnects", max(0, ts.opens - 1)),
-            ("telemetry_age_s", f"{age:.3f}"),
+            ("telemetry_age_s", f"{age:.3f}"), ("foreign_command_publishers", ", ".join(self._foreign) or "none"),
         )]
+        if self._foreign:
+            status.level, status.message = DiagnosticStatus.ERROR, "foreign thruster command publisher: disarmed"
         array = DiagnosticArray()
         array.header.stamp = self.get_clock().now().to_msg()
         array.status = [status]

@@ -102,6 +102,7 @@ class MainControllerSim:
         self._last_seq = 0
         self._seq = 0
         self._failsafe = False
+        self._silent_until = -math.inf
         self._master, slave = os.openpty()
         tty.setraw(self._master)
         tty.setraw(slave)
@@ -133,6 +134,10 @@ class MainControllerSim:
     def __exit__(self, *exc: object) -> None:
         self.stop()
 
+    def pause_telemetry(self, seconds: float) -> None:
+        """Fault injection: send no telemetry for a while (the navigation system hangs)."""
+        self._silent_until = self.clock() + seconds
+
     def records(self) -> list[CommandRecord]:
         with self._lock:
             return list(self.log)
@@ -150,7 +155,8 @@ class MainControllerSim:
             last = now
             if now >= next_telemetry:
                 next_telemetry = now + period
-                self._write(self._telemetry(now))
+                if now >= self._silent_until:
+                    self._write(self._telemetry(now))
             time.sleep(0.001)
 
     def _read(self) -> None:

@@ -1,0 +1,80 @@
+"""The four nodes as processes against a simulated vehicle and main controller: what the demo and soak run.
+
+This process hosts the simulator: vehicle dynamics behind the main-controller simulator
+on a pseudo-terminal, and the vehicle pose on ``sim/vehicle_pose`` for camera_ingest to
+render from. Needs rclpy (imported here, never by the core).
+"""
+
+from __future__ import annotations
+
+import os
+import random
+import time
+from pathlib import Path
+
+import numpy as np
+import rclpy
+from geometry_msgs.msg import PoseStamped
+from std_srvs.srv import Trigger
+
+from auv_dock_guidance.launcher import NodeGroup, ros_environment
+from auv_dock_guidance.nodes.conversions import seconds_stamp, vehicle_to_pose
+from auv_dock_guidance.sim.main_controller import MainControllerSim
+from auv_dock_guidance.sim.vehicle import AuvDynamics
+from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
+
+NODES = ["camera_ingest", "detector", "guidance", "serial_bridge"]
+
+
+class SimulatedSystem:
+    def __init__(self, world: PoolWorld, start: VehiclePose, log_dir: Path, seed: int = 7) -> None:
+        self.world = world
+        self.vehicle = AuvDynamics(start, seed=seed)
+        self.controller = MainControllerSim(vehicle=self.vehicle)
+        self.domain = random.Random(os.getpid()).randint(30, 200)
+        self.group = NodeGroup(
+            NODES,
+            overrides={
+                "camera_ingest": {"source": "sim", "sim_reflection": world.reflection},
+                "serial_bridge": {"port": self.controller.port, "arm_on_start": True},
+            },
+            env=ros_environment(domain_id=self.domain),
+            log_dir=log_dir,
+        )
+        rclpy.init(domain_id=self.domain)
+        self.node = rclpy.create_node("simulator")
+        publisher = self.node.create_publisher(PoseStamped, "sim/vehicle_pose", 1)
+        self.node.create_timer(
+            1 / 30, lambda: publisher.publish(vehicle_to_pose(self.vehicle.pose, seconds_stamp(time.time()))))
+        self._reset_client = self.node.create_client(Trigger, "guidance/reset")
+
+    def start(self) -> SimulatedSystem:
+        self.controller.start()
+        self.group.start()
+        return self
+
+    def spin(self, seconds: float) -> None:
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            rclpy.spin_once(self.node, timeout_sec=min(0.05, max(0.0, end - time.monotonic())))
+
+    def reposition(self, pose: VehiclePose) -> None:
+        """Put the vehicle at a new start, at rest, and re-arm guidance."""
+        self.vehicle.pose = pose
+        self.vehicle.velocity = np.zeros(3)
+        self.vehicle.rates = np.zeros(2)
+        if self._reset_client.wait_for_service(timeout_sec=2.0):
+            future = self._reset_client.call_async(Trigger.Request())
+            end = time.monotonic() + 2.0
+            while not future.done() and time.monotonic() < end:
+                rclpy.spin_once(self.node, timeout_sec=0.05)
+
+    def nose_past_dock(self) -> bool:
+        return bool(self.world.camera_position(self.vehicle.pose)[0] >= self.world.dock_x_m)
+
+    def stop(self) -> dict[str, int | None]:
+        self.node.destroy_node()
+        rclpy.try_shutdown()
+        codes = self.group.stop()
+        self.controller.stop()
+        return codes
