@@ -15,7 +15,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -23,7 +23,7 @@ from sensor_msgs.msg import CameraInfo, Image
 
 from auv_dock_guidance.errors import ConfigError, DockGuidanceError
 from auv_dock_guidance.geometry.camera import CameraModel, paper_camera
-from auv_dock_guidance.nodes.common import Param, declare, run_node
+from auv_dock_guidance.nodes.common import Param, declare, diagnostic_status, publish_diagnostics, run_node
 from auv_dock_guidance.nodes.conversions import array_to_image, camera_to_info, pose_to_vehicle, seconds_stamp
 from auv_dock_guidance.sim.scene import render
 from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
@@ -154,15 +154,11 @@ class CameraIngestNode(Node):
         self.frames += 1
 
     def _publish_diagnostics(self) -> None:
-        status = DiagnosticStatus(name="auv_dock_guidance: camera_ingest", hardware_id=self.values["source"])
-        status.level = DiagnosticStatus.WARN if self._stalled else DiagnosticStatus.OK
-        status.message = "stalled" if self._stalled else "streaming"
-        status.values = [KeyValue(key="frames", value=str(self.frames)), KeyValue(key="failures", value=str(self.failures)),
-                         KeyValue(key="stalls", value=str(self.stalls))]
-        array = DiagnosticArray()
-        array.header.stamp = self.get_clock().now().to_msg()
-        array.status = [status]
-        self.diag_pub.publish(array)
+        level = DiagnosticStatus.WARN if self._stalled else DiagnosticStatus.OK
+        status = diagnostic_status("camera_ingest", self.values["source"], level,
+                                   "stalled" if self._stalled else "streaming",
+                                   {"frames": self.frames, "failures": self.failures, "stalls": self.stalls})
+        publish_diagnostics(self, self.diag_pub, status)
 
 
 def main(args: list[str] | None = None) -> int:

@@ -65,6 +65,22 @@ def on_parameter_change(node: Node, apply: Callable[[dict[str, Any]], str | None
     node.add_on_set_parameters_callback(callback)
 
 
+def diagnostic_status(name: str, hardware_id: str, level: bytes, message: str, values: dict[str, Any]) -> Any:
+    """One /diagnostics entry; values become key/value strings."""
+    from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+
+    return DiagnosticStatus(level=level, name=f"auv_dock_guidance: {name}", message=message, hardware_id=hardware_id,
+                            values=[KeyValue(key=k, value=str(v)) for k, v in values.items()])
+
+
+def publish_diagnostics(node: Node, publisher: Any, status: Any) -> None:
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    array = DiagnosticArray(status=[status])
+    array.header.stamp = node.get_clock().now().to_msg()
+    publisher.publish(array)
+
+
 def run_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:
     """Initialise rclpy, spin one node until Ctrl-C or shutdown, and clean up."""
     rclpy.init(args=args)

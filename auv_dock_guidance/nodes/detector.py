@@ -15,7 +15,7 @@ import time
 from collections import deque
 from typing import Any
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PointStamped, Vector3Stamped
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -24,7 +24,14 @@ from std_msgs.msg import Bool
 
 from auv_dock_guidance.errors import DockGuidanceError
 from auv_dock_guidance.geometry.camera import CameraModel
-from auv_dock_guidance.nodes.common import Param, declare, on_parameter_change, run_node
+from auv_dock_guidance.nodes.common import (
+    Param,
+    declare,
+    diagnostic_status,
+    on_parameter_change,
+    publish_diagnostics,
+    run_node,
+)
 from auv_dock_guidance.nodes.conversions import image_to_array, info_to_camera
 from auv_dock_guidance.vision.detector import Detector, DetectorConfig
 from auv_dock_guidance.vision.overlay import overlay_jpeg
@@ -164,25 +171,20 @@ class DetectorNode(Node):
         now = time.monotonic()
         recent = [t for t in self._times if now - t[0] < 5.0]
         fps = len(recent) / 5.0
-        status = DiagnosticStatus(name="auv_dock_guidance: detector", hardware_id="camera")
-        if not recent:
-            status.level, status.message = DiagnosticStatus.WARN, "no frames in the last 5 s"
-        else:
-            status.level, status.message = DiagnosticStatus.OK, f"{fps:.1f} fps"
         processing = sorted(t[1] for t in recent)
-        rate = sum(t[2] for t in recent) / len(recent) if recent else 0.0
         share = self.detector.threshold.fraction
-        status.values = [
-            KeyValue(key="fps", value=f"{fps:.2f}"),
-            KeyValue(key="processing_ms_p50", value=f"{1000 * processing[len(processing) // 2]:.2f}" if processing else "nan"),
-            KeyValue(key="detection_rate", value=f"{rate:.3f}"),
-            KeyValue(key="threshold_share", value=f"{share:.3f}" if share is not None else "nan"),
-            KeyValue(key="rejected_frames", value=str(self._bad_frames)),
-        ]
-        array = DiagnosticArray()
-        array.header.stamp = self.get_clock().now().to_msg()
-        array.status = [status]
-        self.diag_pub.publish(array)
+        status = diagnostic_status(
+            "detector", "camera", DiagnosticStatus.OK if recent else DiagnosticStatus.WARN,
+            f"{fps:.1f} fps" if recent else "no frames in the last 5 s",
+            {
+                "fps": f"{fps:.2f}",
+                "processing_ms_p50": f"{1000 * processing[len(processing) // 2]:.2f}" if processing else "nan",
+                "detection_rate": f"{sum(t[2] for t in recent) / len(recent):.3f}" if recent else "0",
+                "threshold_share": f"{share:.3f}" if share is not None else "nan",
+                "rejected_frames": self._bad_frames,
+            },
+        )
+        publish_diagnostics(self, self.diag_pub, status)
 
 
 def main(args: list[str] | None = None) -> int:

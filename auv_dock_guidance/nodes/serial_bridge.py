@@ -19,7 +19,7 @@ import math
 import time
 from typing import Any
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 from sensor_msgs.msg import Imu
@@ -32,7 +32,14 @@ from auv_dock_guidance.errors import ConfigError
 from auv_dock_guidance.link.bridge import LinkBridge
 from auv_dock_guidance.link.protocol import Status, TelemetryMsg
 from auv_dock_guidance.link.transport import SerialTransport
-from auv_dock_guidance.nodes.common import Param, declare, on_parameter_change, run_node
+from auv_dock_guidance.nodes.common import (
+    Param,
+    declare,
+    diagnostic_status,
+    on_parameter_change,
+    publish_diagnostics,
+    run_node,
+)
 from auv_dock_guidance.nodes.conversions import attitude_to_imu, stamp_seconds
 
 PARAMS = [
@@ -199,27 +206,22 @@ class SerialBridgeNode(Node):
     def _publish_diagnostics(self) -> None:
         s, d, ts = self.bridge.stats, self.bridge.decoder.stats, self.transport.stats
         age = time.monotonic() - self.bridge.telemetry_time if self.bridge.telemetry_time is not None else math.inf
-        status = DiagnosticStatus(name="auv_dock_guidance: serial_bridge", hardware_id=self.transport.port)
-        if not self.transport.connected:
-            status.level, status.message = DiagnosticStatus.ERROR, "serial port not open"
-        elif age > 0.5:
-            status.level, status.message = DiagnosticStatus.WARN, "no telemetry from the main controller"
-        else:
-            status.level = DiagnosticStatus.OK
-            status.message = "armed" if self.bridge.armed else "disarmed"
-        status.values = [KeyValue(key=k, value=str(v)) for k, v in (
-            ("armed", self.bridge.armed), ("in_failsafe", self.bridge.in_failsafe),
-            ("failsafe_events", s.failsafe_events), ("commands_sent", s.commands_sent),
-            ("rejected_values", s.rejected_values), ("frames_received", d.frames), ("crc_errors", d.crc_errors),
-            ("bytes_dropped", d.bytes_dropped), ("reconnects", max(0, ts.opens - 1)),
-            ("telemetry_age_s", f"{age:.3f}"), ("foreign_command_publishers", ", ".join(self._foreign) or "none"),
-        )]
         if self._foreign:
-            status.level, status.message = DiagnosticStatus.ERROR, "foreign thruster command publisher: disarmed"
-        array = DiagnosticArray()
-        array.header.stamp = self.get_clock().now().to_msg()
-        array.status = [status]
-        self.diag_pub.publish(array)
+            level, message = DiagnosticStatus.ERROR, "foreign thruster command publisher: disarmed"
+        elif not self.transport.connected:
+            level, message = DiagnosticStatus.ERROR, "serial port not open"
+        elif age > 0.5:
+            level, message = DiagnosticStatus.WARN, "no telemetry from the main controller"
+        else:
+            level, message = DiagnosticStatus.OK, "armed" if self.bridge.armed else "disarmed"
+        status = diagnostic_status("serial_bridge", self.transport.port, level, message, {
+            "armed": self.bridge.armed, "in_failsafe": self.bridge.in_failsafe,
+            "failsafe_events": s.failsafe_events, "commands_sent": s.commands_sent,
+            "rejected_values": s.rejected_values, "frames_received": d.frames, "crc_errors": d.crc_errors,
+            "bytes_dropped": d.bytes_dropped, "reconnects": max(0, ts.opens - 1), "telemetry_age_s": f"{age:.3f}",
+            "foreign_command_publishers": ", ".join(self._foreign) or "none",
+        })
+        publish_diagnostics(self, self.diag_pub, status)
 
 
 def main(args: list[str] | None = None) -> int:
