@@ -50,6 +50,7 @@ class BagRecorder:
         self._lock = threading.Lock()
         self._closed = False
         self.counts: dict[str, int] = {}
+        self.bytes: dict[str, int] = {}
         typestore = get_typestore(Stores.ROS2_JAZZY)
         qos = QoSProfile(depth=50, reliability=ReliabilityPolicy.BEST_EFFORT)
         self._subscriptions = []
@@ -57,6 +58,7 @@ class BagRecorder:
             name = topic if topic.startswith("/") else f"/{topic}"
             connection = self._writer.add_connection(name, msgtype, typestore=typestore)
             self.counts[name] = 0
+            self.bytes[name] = 0
             self._subscriptions.append(node.create_subscription(
                 message_class(msgtype), topic, self._writer_for(connection, name, node), qos, raw=True))
 
@@ -67,6 +69,7 @@ class BagRecorder:
                 if not self._closed:
                     self._writer.write(connection, stamp, data)
                     self.counts[name] += 1
+                    self.bytes[name] += len(data)
         return write
 
     def close(self) -> None:

@@ -104,6 +104,10 @@ def run(args: argparse.Namespace) -> int:
         "entry_lateral_error_m": lateral, "entry_heading_error_deg": heading, "scenario": args.scenario,
         "frames_with_marker": len(bearings), "bag": str(report / "debug_bag"), "messages": recorder.counts,
         "plots": [str(p) for p in plots], "node_exit_codes": codes,
+        # What a shore laptop receives if it subscribes to every debug topic at the defaults.
+        "debug_traffic_kbit_s": round(8 * sum(recorder.bytes.values()) / max(duration, 1e-6) / 1000, 1),
+        "debug_traffic_kbit_s_by_topic": {t: round(8 * b / max(duration, 1e-6) / 1000, 2)
+                                          for t, b in sorted(recorder.bytes.items())},
     }
     (report / "summary.json").write_text(json.dumps(summary, indent=2))
     if outcome == "docked":

@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from auv_dock_guidance import __version__
-from auv_dock_guidance.cli import bag, bench, calibrate, demo, detect, evaluate, link, run, simulate, soak
+from auv_dock_guidance.cli import bag, bench, calibrate, demo, detect, evaluate, link, run, shore, simulate, soak
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -27,6 +27,7 @@ def build_parser() -> argparse.ArgumentParser:
     simulate.add_parser(subparsers)
     bag.add_parsers(subparsers)
     soak.add_parser(subparsers)
+    shore.add_parsers(subparsers)
     return parser
 
 

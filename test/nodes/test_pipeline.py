@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 import time
 
 import cv2
@@ -62,6 +64,8 @@ def test_commands_reach_the_controller_and_follow_the_marker(frames, domain_id, 
                     and _diagnostic_names(seen) >= EXPECTED_DIAGNOSTICS:
                 break
         assert not group.exited(), f"a node died: {group.exited()}"
+        monitor = subprocess.run([sys.executable, "-m", "auv_dock_guidance.cli.main", "monitor", "--once", "3"],
+                                 env=group.env, capture_output=True, text=True, timeout=60)
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
@@ -79,6 +83,8 @@ def test_commands_reach_the_controller_and_follow_the_marker(frames, domain_id, 
     assert _diagnostic_names(seen) >= EXPECTED_DIAGNOSTICS
     assert all(code == 0 for code in codes.values()), f"unclean shutdown {codes}; logs: {logs}"
     assert controller.applied == NEUTRAL  # the bridge leaves the thrusters neutral on shutdown
+    assert monitor.returncode == 0, monitor.stderr
+    assert "TRACK" in monitor.stdout and "live" in monitor.stdout  # the shore monitor saw the run
 
 
 def _driving(controller: MainControllerSim) -> list:
