@@ -53,11 +53,13 @@ class NodeGroup:
     overrides: dict[str, dict[str, Any]] = field(default_factory=dict)
     env: dict[str, str] = field(default_factory=ros_environment)
     log_dir: Path | None = None  # None: output goes to this process's stdout/stderr
+    prefix: list[str] = field(default_factory=list)  # e.g. ["ip", "netns", "exec", "vehicle"]
     processes: dict[str, subprocess.Popen] = field(default_factory=dict)
     _logs: list[IO[bytes]] = field(default_factory=list)
 
     def command(self, name: str) -> list[str]:
-        argv = [sys.executable, "-m", NODE_MODULES[name], "--ros-args", "--params-file", str(self.params_file)]
+        argv = [*self.prefix, sys.executable, "-m", NODE_MODULES[name], "--ros-args", "--params-file",
+                str(self.params_file)]
         for key, value in self.overrides.get(name, {}).items():
             argv += ["-p", f"{name}:{key}:={_format(value)}"]
         return argv

@@ -87,6 +87,8 @@ class SerialBridgeNode(Node):
         self._foreign: list[str] = []
         self._checked_at = -math.inf
         self._unnamed = 0
+        self._publisher_count = -1
+        self._command_topic = "guidance/demands" if self.mavlink is not None else "thrusters/command"
         self._frame_stamp: float | None = None  # camera frame behind the newest setpoint
         self._timed_stamp: float | None = None
         self._last_telemetry_seq: int | None = None
@@ -125,7 +127,7 @@ class SerialBridgeNode(Node):
 
     def _check_command_publishers(self) -> None:
         """Only the guidance node may drive the thrusters: anyone else publishing disarms the bridge."""
-        topic = "guidance/demands" if self.mavlink is not None else "thrusters/command"
+        topic = self._command_topic
         publishers = self.get_publishers_info_by_topic(topic)
         # A publisher still being discovered has no name yet: not trusted, not yet condemned.
         self._unnamed = sum(i.node_name == "_NODE_NAME_UNKNOWN_" for i in publishers)
@@ -140,8 +142,10 @@ class SerialBridgeNode(Node):
 
     def _sender_trusted(self) -> bool:
         """Check the publishers before acting on a command (at most twice a second)."""
-        if self._unnamed or time.monotonic() - self._checked_at > 0.5:
+        count = self.count_publishers(self._command_topic)
+        if count != self._publisher_count or self._unnamed or time.monotonic() - self._checked_at > 0.5:
             self._check_command_publishers()
+            self._publisher_count = count
         return not self._foreign and not self._unnamed
 
     def _on_command(self, msg: UInt16MultiArray) -> None:
