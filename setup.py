@@ -29,6 +29,7 @@ setup(
             "dock_detector = auv_dock_guidance.nodes.detector:main",
             "dock_guidance = auv_dock_guidance.nodes.guidance:main",
             "dock_serial_bridge = auv_dock_guidance.nodes.serial_bridge:main",
+            "dock_vision_pipeline = auv_dock_guidance.nodes.vision_pipeline:main",
         ],
     },
 )

@@ -17,14 +17,11 @@ import rclpy
 from geometry_msgs.msg import PoseStamped
 from std_srvs.srv import Trigger
 
-from auv_dock_guidance.launcher import NodeGroup, ros_environment
+from auv_dock_guidance.launcher import VISION_COMBINED, NodeGroup, ros_environment
 from auv_dock_guidance.nodes.conversions import seconds_stamp, vehicle_to_pose
 from auv_dock_guidance.sim.main_controller import MainControllerSim
 from auv_dock_guidance.sim.vehicle import AuvDynamics
 from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
-
-NODES = ["camera_ingest", "detector", "guidance", "serial_bridge"]
-
 
 class SimulatedSystem:
     def __init__(self, world: PoolWorld, start: VehiclePose, log_dir: Path, seed: int = 7) -> None:
@@ -33,7 +30,7 @@ class SimulatedSystem:
         self.controller = MainControllerSim(vehicle=self.vehicle)
         self.domain = random.Random(os.getpid()).randint(30, 200)
         self.group = NodeGroup(
-            NODES,
+            VISION_COMBINED,
             overrides={
                 "camera_ingest": {"source": "sim", "sim_reflection": world.reflection},
                 "serial_bridge": {"port": self.controller.port, "arm_on_start": True},

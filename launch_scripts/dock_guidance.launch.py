@@ -24,10 +24,9 @@ def generate_launch_description():
         DeclareLaunchArgument("source", default_value="device", description="device | video | folder | sim"),
         DeclareLaunchArgument("path", default_value="0", description="camera index/path, video or folder"),
         SetEnvironmentVariable("FASTRTPS_DEFAULT_PROFILES_FILE", os.path.join(config, "fastdds_shm.xml")),
-        Node(package="auv_dock_guidance", executable="dock_camera_ingest", name="camera_ingest",
+        # camera_ingest and detector share one process: 1080p frames stay inside it.
+        Node(package="auv_dock_guidance", executable="dock_vision_pipeline",
              parameters=[params, {"source": source, "path": path}], output="screen"),
-        Node(package="auv_dock_guidance", executable="dock_detector", name="detector",
-             parameters=[params], output="screen"),
         Node(package="auv_dock_guidance", executable="dock_guidance", name="guidance",
              parameters=[params], output="screen"),
         Node(package="auv_dock_guidance", executable="dock_serial_bridge", name="serial_bridge",

@@ -17,7 +17,7 @@ import numpy as np
 from auv_dock_guidance.cli.common import positive_float, positive_int, print_json, rounded
 from auv_dock_guidance.cli.progress import Progress
 from auv_dock_guidance.geometry.camera import paper_camera
-from auv_dock_guidance.launcher import NodeGroup, ros_environment
+from auv_dock_guidance.launcher import VISION_COMBINED, VISION_SEPARATE, NodeGroup, ros_environment
 from auv_dock_guidance.sim.main_controller import MainControllerSim
 from auv_dock_guidance.sim.scene import Lamp, SceneSpec, render
 from auv_dock_guidance.vision.detector import Detector, DetectorConfig, PaperBaseline
@@ -33,6 +33,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--latency", action="store_true", help="only the frame-to-PWM latency through the nodes")
     p.add_argument("--seconds", type=positive_float, default=15.0, help="latency run length (default %(default)s)")
     p.add_argument("--rate", type=positive_float, default=30.0, help="camera rate in Hz (default %(default)s)")
+    p.add_argument("--separate-vision", action="store_true", help="camera_ingest and detector as two processes")
     p.add_argument("--frames", type=positive_int, default=120, help="frames for the detector timings (default %(default)s)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=run)
@@ -42,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
     report: dict[str, object] = {}
     if not args.latency:
         report.update(detector_bench(args.frames))
-    report.update(latency_bench(args.seconds, args.rate))
+    report.update(latency_bench(args.seconds, args.rate, not args.separate_vision))
     if args.json:
         print_json(report)
     else:
@@ -126,7 +127,7 @@ def _approach_frames(folder: Path, count: int = 12) -> None:
         cv2.imwrite(str(folder / f"frame_{i:03d}.png"), render(camera, spec)[0])
 
 
-def latency_bench(seconds: float, rate_hz: float) -> dict[str, object]:
+def latency_bench(seconds: float, rate_hz: float, combined_vision: bool = True) -> dict[str, object]:
     """Frame publish -> thruster command on the serial line, across the real node processes."""
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
@@ -139,9 +140,9 @@ def latency_bench(seconds: float, rate_hz: float) -> dict[str, object]:
         _approach_frames(folder)
         controller = MainControllerSim().start()
         group = NodeGroup(
-            ["camera_ingest", "detector", "guidance", "serial_bridge"],
+            VISION_COMBINED if combined_vision else VISION_SEPARATE,
             overrides={
-                "camera_ingest": {"source": "folder", "path": str(folder), "loop": True, "rate_hz": rate_hz},
+                "camera_ingest": {"source": "folder", "path": str(folder), "loop": True, "rate_hz": float(rate_hz)},
                 "serial_bridge": {"port": controller.port, "arm_on_start": True},
                 "detector": {"debug_image_rate_hz": 0.0},
             },

@@ -7,7 +7,7 @@ import time
 from pathlib import Path
 
 from auv_dock_guidance.cli.common import fail
-from auv_dock_guidance.launcher import NODE_MODULES, NodeGroup, ros_environment
+from auv_dock_guidance.launcher import VISION_COMBINED, VISION_SEPARATE, NodeGroup, ros_environment
 from auv_dock_guidance.resources import config_file
 from auv_dock_guidance.sim.main_controller import MainControllerSim
 
@@ -17,10 +17,12 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "run",
         help="start the guidance nodes as processes (what ros2 launch does on a ROS install)",
         description="Start camera_ingest, detector, guidance and serial_bridge from "
-        "config/dock_guidance.yaml until Ctrl-C, then stop them cleanly.",
+        "config/dock_guidance.yaml until Ctrl-C, then stop them cleanly. camera_ingest and detector "
+        "share one process (frames stay inside one DDS participant) unless --separate-vision.",
     )
     p.add_argument("--config", metavar="YAML", help="parameter file (default: config/dock_guidance.yaml)")
-    p.add_argument("--nodes", nargs="+", choices=list(NODE_MODULES), default=list(NODE_MODULES))
+    p.add_argument("--separate-vision", action="store_true",
+                   help="run camera_ingest and detector as two processes (default: one process, two nodes)")
     p.add_argument("--source", choices=["device", "video", "folder", "sim"], help="camera source")
     p.add_argument("--path", help="camera index/path, video file or image folder")
     p.add_argument("--port", help="main controller serial port")
@@ -47,9 +49,10 @@ def run(args: argparse.Namespace) -> int:
         controller = MainControllerSim().start()
         overrides["serial_bridge"].update(port=controller.port, arm_on_start=True)
         print(f"simulated main controller on {controller.port}", flush=True)
-    group = NodeGroup(args.nodes, params, overrides, ros_environment(args.domain_id, not args.network))
+    nodes = VISION_SEPARATE if args.separate_vision else VISION_COMBINED
+    group = NodeGroup(nodes, params, overrides, ros_environment(args.domain_id, not args.network))
     group.start()
-    print(f"started {', '.join(args.nodes)}; Ctrl-C stops", flush=True)
+    print(f"started {', '.join(nodes)}; Ctrl-C stops", flush=True)
     try:
         while True:
             time.sleep(0.5)

@@ -83,13 +83,19 @@ def publish_diagnostics(node: Node, publisher: Any, status: Any) -> None:
 
 def run_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:
     """Initialise rclpy, spin one node until Ctrl-C or shutdown, and clean up."""
+    return run_nodes([factory], args)
+
+
+def run_nodes(factories: list[Callable[[], Node]], args: list[str] | None = None) -> int:
+    """Several nodes in one process on one executor; exit code 2 on a configuration error."""
     rclpy.init(args=args)
-    node = None
+    nodes: list[Node] = []
     code = 0
     try:
-        node = factory()
         executor = SingleThreadedExecutor()
-        executor.add_node(node)
+        for factory in factories:
+            nodes.append(factory())
+            executor.add_node(nodes[-1])
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
@@ -101,7 +107,7 @@ def run_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:
         print(f"error: {exc}", file=sys.stderr, flush=True)
         code = 2
     finally:
-        if node is not None:
+        for node in nodes:
             close = getattr(node, "close", None)
             if close is not None:
                 close()

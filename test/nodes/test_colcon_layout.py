@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
-NODES = ["dock_camera_ingest", "dock_detector", "dock_guidance", "dock_serial_bridge"]
+NODES = ["dock_camera_ingest", "dock_detector", "dock_guidance", "dock_serial_bridge", "dock_vision_pipeline"]
 
 
 @pytest.fixture(scope="module")
