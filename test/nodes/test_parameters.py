@@ -1,0 +1,51 @@
+"""Parameters: declared with ranges, refused with a reason at start and at run time."""
+
+import pytest
+import rclpy
+from rclpy.exceptions import InvalidParameterValueException
+from rclpy.parameter import Parameter
+
+from auv_dock_guidance.nodes.detector import DetectorNode
+from auv_dock_guidance.nodes.guidance import GuidanceNode
+
+
+@pytest.fixture()
+def ros(domain_id):
+    rclpy.init(domain_id=domain_id)
+    yield
+    rclpy.try_shutdown()
+
+
+def test_detector_threshold_can_change_at_run_time_but_not_into_nonsense(ros):
+    node = DetectorNode()
+    try:
+        ok = node.set_parameters([Parameter("threshold.fraction_near", value=0.5)])[0]
+        assert ok.successful and node.detector.config.threshold.fraction_near == 0.5
+        bad = node.set_parameters([Parameter("threshold.fraction_far", value=0.55)])[0]
+        assert not bad.successful and "fraction_far" in bad.reason
+        out_of_range = node.set_parameters([Parameter("marker_radius_m", value=-1.0)])[0]
+        assert not out_of_range.successful
+        nan = node.set_parameters([Parameter("threshold.floor_grey", value=float("nan"))])[0]
+        assert not nan.successful and "nan" in nan.reason
+    finally:
+        node.destroy_node()
+
+
+def test_guidance_gains_change_at_run_time(ros):
+    node = GuidanceNode()
+    try:
+        assert node.set_parameters([Parameter("inner.kp", value=2.0)])[0].successful
+        assert node.guidance.config.cascade.inner_yaw.kp == 2.0
+        refused = node.set_parameters([Parameter("terminal_speed_mps", value=2.0)])[0]  # faster than cruise
+        assert not refused.successful and "terminal_speed_mps" in refused.reason
+    finally:
+        node.destroy_node()
+
+
+def test_out_of_range_value_at_start_is_refused(domain_id):
+    rclpy.init(domain_id=domain_id, args=["--ros-args", "-p", "marker_radius_m:=-0.35"])
+    try:
+        with pytest.raises(InvalidParameterValueException):
+            DetectorNode()
+    finally:
+        rclpy.try_shutdown()
