@@ -34,6 +34,17 @@ VISION_COMBINED = ["vision_pipeline", "guidance", "serial_bridge"]
 VISION_SEPARATE = ["camera_ingest", "detector", "guidance", "serial_bridge"]
 
 
+def rss_mb(pid: int) -> float:
+    """Resident memory of a process in MiB (0 when it is gone)."""
+    try:
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return 0.0
+
+
 def ros_environment(domain_id: int | None = None, localhost_only: bool = True) -> dict[str, str]:
     env = dict(os.environ)
     env.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(config_file("fastdds_shm.xml")))

@@ -20,6 +20,7 @@ import numpy as np
 
 from auv_dock_guidance.cli.common import positive_float, print_json, rounded
 from auv_dock_guidance.cli.progress import Progress
+from auv_dock_guidance.launcher import rss_mb
 from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
 
 NEUTRAL = (1500, 1500, 1500, 1500)
@@ -33,16 +34,6 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--fault-every", type=positive_float, default=25.0, metavar="S", help="seconds between faults")
     p.add_argument("--json", action="store_true")
     p.set_defaults(run=run)
-
-
-def _rss_mb(pid: int) -> float:
-    try:
-        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) / 1024.0
-    except OSError:
-        pass
-    return 0.0
 
 
 def _start_pose(rng: np.random.Generator, world: PoolWorld) -> VehiclePose:
@@ -64,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
     system.node.create_subscription(String, "guidance/state", lambda m: state.__setitem__("value", m.data), 10)
     system.node.create_subscription(Bool, "dock/detected", lambda m: frames.__setitem__(0, frames[0] + 1), 100)
     system.start()
-    controller, group = system.controller, system.group
+    group = system.group
     deadline_s = 0.2 + 0.05  # the bridge's failsafe timeout plus two 50 Hz ticks
     telemetry_deadline_s = 0.5 + 0.1  # guidance's telemetry timeout plus a control tick and transport
     injected: list[str] = []
@@ -75,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     end = t0 + args.minutes * 60.0
     progress = Progress("soak", int(args.minutes * 60))
     system.spin(12.0)  # start-up, discovery, first lock
-    rss_start = sum(_rss_mb(p.pid) for p in group.processes.values())
+    rss_start = sum(rss_mb(p.pid) for p in group.processes.values())
     next_fault = time.monotonic() + args.fault_every
     try:
         while time.monotonic() < end:
@@ -97,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
                 next_fault = time.monotonic() + args.fault_every
     except KeyboardInterrupt:
         pass
-    rss_end = sum(_rss_mb(p.pid) for p in group.processes.values())
+    rss_end = sum(rss_mb(p.pid) for p in group.processes.values())
     minutes = (time.monotonic() - t0) / 60.0
     codes = system.stop()
     report = {

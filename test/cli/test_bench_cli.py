@@ -8,5 +8,4 @@ def test_detector_bench_reports_every_mode_on_the_same_frames():
     for mode in ("baseline", "full_frame", "tracking"):
         assert report[f"{mode}_fps"] > 0 and report[f"{mode}_ms_p95"] >= report[f"{mode}_ms_p50"]
     assert report["full_frame_detection_rate"] == 1.0
-    assert report["detector_rss_mb"] > 0
     json.dumps(report)

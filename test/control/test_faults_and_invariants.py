@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from auv_dock_guidance.control.cascade import Attitude, Target
-from auv_dock_guidance.control.guidance import Guidance, GuidanceConfig, State
+from auv_dock_guidance.control.guidance import Guidance, State
 
 NEUTRAL = (1500, 1500, 1500, 1500)
 
