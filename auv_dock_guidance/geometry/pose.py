@@ -94,12 +94,6 @@ class CircleSolution:
     center_m: np.ndarray  # (3,) in the camera optical frame
     normal: np.ndarray  # (3,) unit, pointing towards the camera
 
-    @property
-    def tilt_rad(self) -> float:
-        """Angle between the ring's axis and the line of sight to its centre."""
-        sight = -self.center_m / np.linalg.norm(self.center_m)
-        return math.acos(float(np.clip(self.normal @ sight, -1.0, 1.0)))
-
 
 def circles_from_ellipse(ellipse: Ellipse, marker_radius_m: float) -> list[CircleSolution]:
     """Both 3-D circles of radius R whose perspective image is the given ellipse.
