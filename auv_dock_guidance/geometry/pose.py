@@ -65,10 +65,6 @@ class MarkerPose:
     def pitch_deg(self) -> float:
         return math.degrees(self.pitch_rad)
 
-    @property
-    def position_m(self) -> tuple[float, float, float]:
-        return (self.offset_x_m, self.offset_y_m, self.range_m)
-
 
 def pose_from_circle(center_xy: tuple[float, float], radius_norm: float, marker_radius_m: float) -> MarkerPose:
     """The paper's equations 7-8 on the normalized plane."""
