@@ -65,10 +65,11 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.monotonic()
     end = t0 + args.minutes * 60.0
     progress = Progress("soak", int(args.minutes * 60))
-    system.spin(12.0)  # start-up, discovery, first lock
-    rss_start = sum(rss_mb(p.pid) for p in group.processes.values())
-    next_fault = time.monotonic() + args.fault_every
+    rss_start = rss_end = 0.0
     try:
+        system.spin(12.0)  # start-up, discovery, first lock
+        rss_start = sum(rss_mb(p.pid) for p in group.processes.values())
+        next_fault = time.monotonic() + args.fault_every
         while time.monotonic() < end:
             system.spin(0.2)
             progress(int(time.monotonic() - t0), int(args.minutes * 60))
@@ -86,11 +87,12 @@ def run(args: argparse.Namespace) -> int:
                 if ok:
                     survived.append(fault)
                 next_fault = time.monotonic() + args.fault_every
+        rss_end = sum(rss_mb(p.pid) for p in group.processes.values())
     except KeyboardInterrupt:
-        pass
-    rss_end = sum(rss_mb(p.pid) for p in group.processes.values())
+        rss_end = sum(rss_mb(p.pid) for p in group.processes.values())
+    finally:
+        codes = system.stop()
     minutes = (time.monotonic() - t0) / 60.0
-    codes = system.stop()
     report = {
         "minutes": rounded(minutes, 2), "frames": frames[0], "deadline_misses": len(misses),
         "rss_start_mb": rounded(rss_start, 1), "rss_end_mb": rounded(rss_end, 1),
@@ -114,7 +116,7 @@ def _inject(fault: str, system, deadline_s: float, telemetry_deadline_s: float, 
         controller.pause_telemetry(1.5)
         limit = telemetry_deadline_s
     else:
-        node = "guidance" if fault == "guidance_killed" else "detector"
+        node = "guidance" if fault == "guidance_killed" else "vision_pipeline"  # the detector's process
         group.processes[node].send_signal(signal.SIGKILL)
         group.processes[node].wait(timeout=5)
         limit = deadline_s if node == "guidance" else 1.0 + telemetry_deadline_s  # camera timeout for the detector
@@ -131,7 +133,7 @@ def _inject(fault: str, system, deadline_s: float, telemetry_deadline_s: float, 
     elif driving and not neutral:
         miss = f"{fault}: no neutral command reached the controller"
     if fault != "telemetry_pause":
-        group.restart("guidance" if fault == "guidance_killed" else "detector")
+        group.restart("guidance" if fault == "guidance_killed" else "vision_pipeline")
         if fault == "guidance_killed":
             system.spin(4.0)
             system.reposition(system.vehicle.pose)  # the new guidance starts in SEARCH anyway
