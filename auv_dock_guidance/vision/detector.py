@@ -335,14 +335,14 @@ class Detector:
             found=True, threshold=region.threshold, candidates=candidates,
             mec_u=float(mu), mec_v=float(mv), mec_radius_px=float(mr),
         )
-        outer = self._fit_ellipse(region.outer)
-        if outer is None:  # too little of the outline is usable (image border, lens fold)
+        outer_fit = self._fit_ellipse(region.outer)
+        if outer_fit is None:  # too little of the outline is usable (image border, lens fold)
             return Detection(u=float(mu), v=float(mv), radius_px=float(mr), **common)
+        outer = outer_fit[0]
         inner, cue_noise = None, 0.0
         if region.hole is not None and is_ring(region.shape, self.config.selection):
-            inner_fit = self._fit_ellipse_with_error(region.hole)
-            outer_fit = self._fit_ellipse_with_error(region.outer)
-            if inner_fit is not None and outer_fit is not None and inner_fit[0].semi_major < outer.semi_major:
+            inner_fit = self._fit_ellipse(region.hole)
+            if inner_fit is not None and inner_fit[0].semi_major < outer.semi_major:
                 inner = inner_fit[0]
                 cue_noise = math.hypot(inner_fit[1], outer_fit[1])
         marker_radius = self.config.marker_radius_m
@@ -391,13 +391,9 @@ class Detector:
         uv = self.camera.normalized_to_pixels(np.array([x, y]))
         return float(uv[0]), float(uv[1]), self.camera.focal_px
 
-    def _fit_ellipse(self, points_px: np.ndarray | None) -> Ellipse | None:
-        """Ellipse through outline points on the normalized plane (pixel plane without a camera)."""
-        fit = self._fit_ellipse_with_error(points_px)
-        return None if fit is None else fit[0]
-
-    def _fit_ellipse_with_error(self, points_px: np.ndarray | None) -> tuple[Ellipse, float] | None:
-        """The ellipse and the standard error of its centre (normalized units).
+    def _fit_ellipse(self, points_px: np.ndarray | None) -> tuple[Ellipse, float] | None:
+        """Ellipse through outline points on the normalized plane (pixel plane without a camera),
+        and the standard error of its centre (normalized units).
 
         Outline errors are correlated along the outline (scallops of separate LEDs, pixel
         steps), so the points count as one independent sample per few pixels of outline.
