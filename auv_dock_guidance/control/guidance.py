@@ -12,6 +12,8 @@ States:
   ``blind_range_m`` or jumping more than ``terminal_max_bearing_jump_rad`` from the last
   good one (a partial ring) are not acted on. Lost while still farther than
   ``blind_range_m`` (where it should be in view) for ``terminal_lost_timeout_s``: ABORT.
+  No detection at all for ``terminal_blind_timeout_s``: ABORT (the blind run should be
+  over by then, whatever the speed).
 * DOCKED: the main controller reports the latch, or in TERMINAL the dead-reckoned run
   since the last sighting covers the last range plus a margin.
 * ABORT: marker lost too long, search timed out, telemetry stale or no camera frame
@@ -20,7 +22,15 @@ States:
   ``recovery_s``; the others wait for ``reset()`` (re-arm).
 
 Only TRACK and TERMINAL ever command thrust, and only with fresh telemetry and a live
-camera (when the caller reports frames with ``frame_processed``).
+camera (when the caller reports frames with ``frame_processed``). Fresh means neither
+older nor newer than the limit: after the clock steps back, every earlier stamp lies in
+the future and is not fresh. Detections must move forward in time: a repeated or
+out-of-order stamp is refused, with the reason in ``GuidanceOutput.rejected``.
+
+Time is the caller's clock (ROS time, which is wall time and can step). A step forward
+makes everything stale (neutral, ABORT). A step back would freeze every timer for as
+long as the step, so the remembered times move back with it and the loops restart:
+timers measure elapsed time whatever the clock does.
 
 SEARCH can only reach TERMINAL through TRACK. Every transition is returned once, with
 its reason, for the caller to log.
@@ -35,6 +45,7 @@ from enum import Enum
 from auv_dock_guidance.control.cascade import Attitude, CascadeConfig, CascadeController, Demands, Target
 from auv_dock_guidance.control.mixer import Mixer, MixerConfig, ThrusterCommand
 from auv_dock_guidance.errors import ConfigError
+from auv_dock_guidance.stamps import StampGate
 
 
 class State(str, Enum):
@@ -52,6 +63,7 @@ class GuidanceConfig:
     track_lost_timeout_s: float = 2.0  # TRACK without a detection this long -> SEARCH
     blind_range_m: float = 1.5  # below this the ring is expected to leave the frame: go on blind
     terminal_lost_timeout_s: float = 3.0  # lost this long in TERMINAL while farther than blind_range_m -> ABORT
+    terminal_blind_timeout_s: float = 12.0  # no detection at all this long in TERMINAL -> ABORT
     search_timeout_s: float = 120.0  # SEARCH this long -> ABORT
     terminal_max_bearing_jump_rad: float = math.radians(4)  # larger jumps between frames in TERMINAL are ignored
     dock_margin_m: float = 0.3  # dead-reckoned run past the last range that counts as docked
@@ -67,6 +79,7 @@ class GuidanceConfig:
     def __post_init__(self) -> None:
         positive = (
             self.terminal_range_m, self.track_lost_timeout_s, self.terminal_lost_timeout_s, self.search_timeout_s,
+            self.terminal_blind_timeout_s,
             self.telemetry_timeout_s, self.detection_max_age_s, self.max_roll_rad, self.max_pitch_rad,
             self.blind_range_m, self.camera_timeout_s, self.recovery_s,
         )
@@ -88,6 +101,7 @@ class GuidanceOutput:
     command: ThrusterCommand
     demands: Demands | None
     transition: Transition | None
+    rejected: str | None = None  # why the new detection was refused (bad input), if it was
 
 
 class Guidance:
@@ -101,6 +115,8 @@ class Guidance:
         self.config = config
         self.cascade = CascadeController(config.cascade)
         self.mixer = Mixer(config.mixer)
+        self.clock_steps_back = 0
+        self._clock_s: float | None = None  # the newest clock reading seen
         self.reset()
 
     def reconfigure(self, config: GuidanceConfig) -> None:
@@ -120,8 +136,23 @@ class Guidance:
         self._last_frame_s: float | None = None  # the last processed frame (None: not reported)
         self._abort_kind: str | None = None  # "camera" or "telemetry" aborts clear by themselves
         self._healthy_since: float | None = None
-        self._last_time: float | None = None
         self._run_since_sighting = 0.0
+        self._last_update_s: float | None = None
+        self._target_gate = StampGate()
+
+    def _follow_clock(self, now_s: float) -> None:
+        """Move every remembered time back with a backward clock step, so timers keep counting."""
+        last, self._clock_s = self._clock_s, now_s
+        if last is None or now_s >= last:
+            return
+        step = now_s - last
+        self.clock_steps_back += 1
+        for name in ("_since", "_last_seen_s", "_last_frame_s", "_healthy_since", "_last_update_s"):
+            value = getattr(self, name)
+            if value is not None:
+                setattr(self, name, value + step)
+        self._target_gate.reset()
+        self.cascade.reset()  # its PIDs would hold their output until the clock caught up
 
     def _maybe_recover(self, now_s: float, attitude: Attitude | None) -> Transition | None:
         """Leave an ABORT caused by lost telemetry or camera once both have been healthy a while."""
@@ -156,6 +187,7 @@ class Guidance:
 
     def frame_processed(self, now_s: float) -> None:
         """The detector processed a frame (marker or not): the camera is alive."""
+        self._follow_clock(now_s)
         self._last_frame_s = now_s
 
     def _camera_silent(self, now_s: float) -> bool:
@@ -171,23 +203,26 @@ class Guidance:
     ) -> GuidanceOutput:
         """Advance to ``now_s`` with the newest detection (None if none arrived) and attitude."""
         c = self.config
-        dt = 0.0 if self._last_time is None else max(0.0, now_s - self._last_time)
-        self._last_time = now_s
+        self._follow_clock(now_s)
+        dt = 0.0 if self._last_update_s is None else max(0.0, now_s - self._last_update_s)
+        self._last_update_s = now_s
         if self._since is None:
             self._since = now_s
-        if target is not None and (not target.is_valid() or now_s - target.stamp_s > c.detection_max_age_s):
-            target = None
+        rejected = None
+        if target is not None:
+            rejected = self._refusal(now_s, target)
+            target = None if rejected else target
         if target is not None:
             self._last_seen_s = now_s
             if self._last_frame_s is not None:  # the caller reports frames: a detection is one
                 self._last_frame_s = now_s
         if target is not None and self.state is State.TERMINAL and not self._plausible_in_terminal(target):
             target = None  # seen, but a partial ring: hold the last good goal
-        if attitude is not None and (not attitude.is_valid() or now_s - attitude.stamp_s > c.telemetry_timeout_s):
+        if attitude is not None and (not attitude.is_valid() or not _fresh(now_s, attitude.stamp_s, c.telemetry_timeout_s)):
             attitude = None
         transition = self._next_state(now_s, target, attitude, docked_signal)
         if self.state in (State.ABORT, State.DOCKED) or attitude is None or self._camera_silent(now_s):
-            return GuidanceOutput(self.state, self.mixer.neutral(), None, transition)
+            return GuidanceOutput(self.state, self.mixer.neutral(), None, transition, rejected)
         if target is not None:
             self._last_target = target
             self._run_since_sighting = 0.0
@@ -195,13 +230,24 @@ class Guidance:
         if self.state is State.SEARCH:
             # No thrust without a confirmed marker: the main controller keeps the vehicle level.
             self.cascade.reset()
-            return GuidanceOutput(self.state, self.mixer.neutral(), None, transition)
-        else:
-            seen = self._last_target.range_m - self._run_since_sighting if self._last_target else None
-            speed = self.cascade.speed_for_range(seen)
-            demands = self.cascade.update(attitude, now_s, speed)
-            self._run_since_sighting += speed * dt
-        return GuidanceOutput(self.state, self.mixer.mix(demands.surge, demands.yaw, demands.pitch), demands, transition)
+            return GuidanceOutput(self.state, self.mixer.neutral(), None, transition, rejected)
+        seen = self._last_target.range_m - self._run_since_sighting if self._last_target else None
+        speed = self.cascade.speed_for_range(seen)
+        demands = self.cascade.update(attitude, now_s, speed)
+        self._run_since_sighting += speed * dt
+        command = self.mixer.mix(demands.surge, demands.yaw, demands.pitch)
+        return GuidanceOutput(self.state, command, demands, transition, rejected)
+
+    def _refusal(self, now_s: float, target: Target) -> str | None:
+        """Why a new detection must not be acted on, or None."""
+        limit = self.config.detection_max_age_s
+        if not target.is_valid():
+            return f"not a finite position in front of the camera ({target})"
+        if not _fresh(now_s, target.stamp_s, limit):
+            age = now_s - target.stamp_s
+            when = f"{age:.3f} s ago" if age > 0 else f"{-age:.3f} s in the future"
+            return f"stamped {when} (limit {limit} s either way)"
+        return self._target_gate.admit(target.stamp_s)
 
     def _next_state(
         self, now_s: float, target: Target | None, attitude: Attitude | None, docked_signal: bool
@@ -256,6 +302,9 @@ class Guidance:
                 new_state = State.ABORT
                 reason = (f"marker lost for {lost_for:.1f} s about {last_range - self._run_since_sighting:.2f} m "
                           "out, where it should be in view")
+            elif lost_for > c.terminal_blind_timeout_s:
+                new_state = State.ABORT
+                reason = f"no detection for {lost_for:.1f} s and still not docked"
         if new_state is previous or reason is None:
             return None
         self.state = new_state
@@ -263,3 +312,8 @@ class Guidance:
         if new_state is State.SEARCH:
             self._streak = 0
         return Transition(now_s, previous, new_state, reason)
+
+
+def _fresh(now_s: float, stamp_s: float, limit_s: float) -> bool:
+    """Neither older nor newer than the limit: a stamp from the future is from before a clock step."""
+    return abs(now_s - stamp_s) <= limit_s

@@ -5,8 +5,8 @@ import math
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from auv_dock_guidance.control.cascade import Attitude, Target
-from auv_dock_guidance.control.guidance import Guidance, State
+from auv_dock_guidance.control.cascade import Attitude, CascadeConfig, Target
+from auv_dock_guidance.control.guidance import Guidance, GuidanceConfig, State
 
 NEUTRAL = (1500, 1500, 1500, 1500)
 
@@ -57,13 +57,57 @@ def test_telemetry_loss_aborts_and_recovers():
     assert g.state is State.SEARCH
 
 
-def test_clock_jumping_back_or_forward_never_commands_thrust_on_stale_data():
+def test_clock_jumping_forward_makes_everything_stale():
     g = Guidance()
     t = drive_to_track(g)
-    back = g.update(t - 100.0, None, Attitude(t, 0, 0, 0))  # clock jumped back
-    assert all(1100 <= p <= 1900 for p in back.command.pwm_us)
-    ahead = g.update(t + 3600.0, None, Attitude(t, 0, 0, 0))  # and far ahead: everything is stale
+    ahead = g.update(t + 3600.0, None, Attitude(t, 0, 0, 0))
     assert ahead.command.pwm_us == NEUTRAL and ahead.state is State.ABORT
+
+
+def test_after_the_clock_steps_back_a_lost_marker_still_ends_tracking_in_time():
+    g = Guidance()
+    t = drive_to_track(g) - 100.0  # NTP steps the wall clock back
+    outs = []
+    for _ in range(int(g.config.track_lost_timeout_s / 0.05) + 4):  # frames and telemetry, no marker
+        g.frame_processed(t)
+        outs.append(g.update(t, None, Attitude(t, 0, 0, 0)))
+        t += 0.05
+    assert g.clock_steps_back == 1
+    assert outs[-1].state is State.SEARCH and outs[-1].command.pwm_us == NEUTRAL
+    assert "marker lost" in next(o.transition.reason for o in outs if o.transition)
+
+
+def test_after_the_clock_steps_back_a_silent_camera_still_aborts_in_time():
+    g = Guidance()
+    t = drive_to_track(g) - 100.0
+    driving = 0
+    for _ in range(60):  # telemetry, no frames
+        out = g.update(t, None, Attitude(t, 0, 0, 0))
+        driving += out.command.pwm_us != NEUTRAL
+        t += 0.05
+    assert out.state is State.ABORT
+    assert driving * 0.05 <= g.config.camera_timeout_s + 0.05
+
+
+def test_telemetry_from_before_a_backward_clock_step_is_not_fresh():
+    g = Guidance()
+    t = drive_to_track(g)
+    last_attitude = Attitude(t, 0, 0, 0)  # the navigation falls silent as the clock steps back
+    out = g.update(t - 100.0, Target(t - 100.0, 8.0, 0.5, 0.2), last_attitude)
+    assert out.state is State.ABORT and out.command.pwm_us == NEUTRAL
+    assert "telemetry" in out.transition.reason
+
+
+def test_repeated_out_of_order_and_future_detections_are_refused_and_counted():
+    g = Guidance()
+    t = drive_to_track(g)
+    attitude = Attitude(t, 0, 0, 0)
+    assert g.update(t, Target(t, 8.0, 0.5, 0.2), attitude).rejected is None
+    assert g.update(t, Target(t, 8.0, 0.5, 0.2), attitude).rejected == "repeated stamp"
+    assert "older than the previous" in g.update(t, Target(t - 0.3, 8.0, 0.5, 0.2), attitude).rejected
+    assert "5.000 s in the future" in g.update(t, Target(t + 5.0, 8.0, 0.5, 0.2), attitude).rejected
+    assert "finite" in g.update(t, Target(t, math.nan, 0.5, 0.2), attitude).rejected
+    assert g.update(t + 0.05, Target(t + 0.05, 8.0, 0.5, 0.2), attitude).rejected is None  # the stream goes on
 
 
 def test_attitude_limit_abort_needs_a_re_arm():
@@ -78,33 +122,69 @@ def test_attitude_limit_abort_needs_a_re_arm():
     assert g.state is State.SEARCH
 
 
+def test_a_blind_terminal_run_ends_even_when_it_never_covers_the_distance():
+    g = Guidance(GuidanceConfig(cascade=CascadeConfig(terminal_speed_mps=0.0)))  # creeps ever slower
+    t = drive_to_track(g)
+    for _ in range(3):
+        g.frame_processed(t)
+        g.update(t, Target(t, 1.6, 0.0, 0.0), Attitude(t, 0, 0, 0))
+        t += 0.05
+    assert g.state is State.TERMINAL
+    while g.state is State.TERMINAL and t < 60.0:  # the ring has left the frame
+        g.frame_processed(t)
+        out = g.update(t, None, Attitude(t, 0, 0, 0))
+        t += 0.05
+    assert out.state is State.ABORT and out.command.pwm_us == NEUTRAL
+    assert "no detection for 12" in out.transition.reason
+
+
+clock_steps = st.tuples(
+    st.floats(0.0, 0.3),  # normal time step
+    st.sampled_from(["tick"] * 8 + ["back", "ahead"]),  # now and then the wall clock steps
+    st.floats(0.01, 300.0),  # by this much
+)
+detections = st.one_of(
+    st.none(),
+    st.tuples(st.floats(0.3, 30.0), st.floats(-5, 5), st.floats(-5, 5),
+              st.floats(-1.0, 1.5),  # stamp age: future, fresh or stale
+              st.booleans()),  # repeat the previous stamp
+)
 events = st.lists(
-    st.tuples(
-        st.floats(0.0, 0.3),  # time step
-        st.one_of(st.none(), st.tuples(st.floats(0.3, 30.0), st.floats(-5, 5), st.floats(-5, 5))),  # detection
-        st.floats(0.0, 1.5),  # telemetry age
-        st.booleans(),  # frame processed
-        st.floats(-1.0, 1.0),  # pitch
-    ),
+    st.tuples(clock_steps, detections,
+              st.one_of(st.just(0.02), st.floats(-1.0, 1.5)),  # telemetry age (negative: from the future)
+              st.booleans(),  # frame processed
+              st.floats(-1.0, 1.0)),  # pitch
     min_size=1, max_size=120,
 )
 
 
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=1000, deadline=None)
 @given(events)
 def test_safety_invariants_hold_for_any_sequence_of_inputs(sequence):
     g = Guidance()
-    t = 0.0
+    c = g.config
+    t = elapsed = 0.0  # elapsed: the time that really passed (a clock step back passes none)
+    fresh_detection_at = -math.inf
+    stamp = None
     previous = g.state
-    for step, detection, telemetry_age, frame, pitch in sequence:
-        t += step
+    for (step, clock, jump), detection, telemetry_age, frame, pitch in sequence:
+        t += step if clock == "tick" else jump if clock == "ahead" else -jump
+        elapsed += step if clock == "tick" else jump if clock == "ahead" else 0.0
         if frame:
             g.frame_processed(t)
-        target = Target(t, detection[0], detection[1], detection[2]) if detection else None
+        target = None
+        if detection is not None:
+            range_m, x, y, age, repeat = detection
+            stamp = stamp if repeat and stamp is not None else t - age
+            target = Target(stamp, range_m, x, y)
+            if abs(t - stamp) <= c.detection_max_age_s:
+                fresh_detection_at = elapsed
         out = g.update(t, target, Attitude(t - telemetry_age, 0.0, pitch, 0.0))
         assert all(1100 <= p <= 1900 for p in out.command.pwm_us)
         if out.command.pwm_us != NEUTRAL:
-            assert telemetry_age <= g.config.telemetry_timeout_s  # fresh telemetry
             assert out.state in (State.TRACK, State.TERMINAL)  # a confirmed marker
+            assert abs(telemetry_age) <= c.telemetry_timeout_s  # fresh telemetry
+            hold = c.track_lost_timeout_s if out.state is State.TRACK else c.terminal_blind_timeout_s
+            assert elapsed - fresh_detection_at <= hold + 1e-9  # a fresh detection, recently
         assert not (previous is State.SEARCH and out.state is State.TERMINAL)
         previous = out.state
