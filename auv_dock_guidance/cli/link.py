@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import os
 import time
 from pathlib import Path
 
@@ -30,7 +29,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         description="Open a pseudo-terminal, speak the main-controller protocol on it, apply "
         "received PWM to a simple vehicle model and send telemetry.",
     )
-    m.add_argument("--port", metavar="PATH", help="also make PATH a symbolic link to the pseudo-terminal")
+    m.add_argument("--port", metavar="PATH", help="the symbolic link to the pseudo-terminal the bridge opens (default: a temporary one)")
     m.add_argument("--telemetry-hz", type=positive_float, default=50.0, help="telemetry rate (default %(default)s)")
     m.set_defaults(run=run_mock_controller)
 
@@ -55,15 +54,12 @@ def run_selftest_command(args: argparse.Namespace) -> int:
 
 
 def run_mock_controller(args: argparse.Namespace) -> int:
-    link = Path(args.port) if args.port else None
-    if link is not None and (link.exists() or link.is_symlink()) and not link.is_symlink():
-        fail(f"{link} exists and is not a symbolic link; not replacing it")
-    with MainControllerSim(telemetry_hz=args.telemetry_hz) as controller:
-        if link is not None:
-            if link.is_symlink():
-                link.unlink()
-            os.symlink(controller.port, link)
-        print(f"main controller simulator on {link or controller.port} ({controller.port}); Ctrl-C stops", flush=True)
+    try:
+        controller = MainControllerSim(telemetry_hz=args.telemetry_hz, link=Path(args.port) if args.port else None)
+    except FileExistsError as exc:
+        fail(str(exc))
+    with controller:
+        print(f"main controller simulator on {controller.port} ({controller.pty_name}); Ctrl-C stops", flush=True)
         try:
             while True:
                 time.sleep(1.0)
@@ -73,7 +69,4 @@ def run_mock_controller(args: argparse.Namespace) -> int:
                       flush=True)
         except KeyboardInterrupt:
             pass
-        finally:
-            if link is not None and link.is_symlink():
-                link.unlink()
     return 0

@@ -23,7 +23,7 @@ from sensor_msgs.msg import CameraInfo, Image
 
 from auv_dock_guidance.errors import ConfigError, DockGuidanceError
 from auv_dock_guidance.geometry.camera import CameraModel, paper_camera
-from auv_dock_guidance.nodes.common import Param, declare, diagnostic_status, publish_diagnostics, run_node
+from auv_dock_guidance.nodes.common import InputProblems, Param, declare, diagnostic_status, publish_diagnostics, run_node
 from auv_dock_guidance.nodes.conversions import array_to_image, camera_to_info, pose_to_vehicle, seconds_stamp
 from auv_dock_guidance.sim.scene import render
 from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
@@ -58,7 +58,7 @@ class CameraIngestNode(Node):
         self.info_pub = self.create_publisher(CameraInfo, "camera/camera_info", 1)
         self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.frames = 0
-        self.failures = 0
+        self.problems = InputProblems(self)
         self.stalls = 0
         self._last_frame = time.monotonic()
         self._stalled = False
@@ -86,7 +86,7 @@ class CameraIngestNode(Node):
             raise ConfigError(f"source {source!r} must be device, video, folder or sim")
         period = 0.001 if source in ("device", "video") else 1.0 / self.values["rate_hz"]
         self.create_timer(period, self._on_timer)
-        self.create_timer(1.0, self._publish_diagnostics)
+        self.create_timer(1.0, lambda: publish_diagnostics(self, self.diag_pub, self.diagnostics()))
         self.get_logger().info(f"source {source} {self.values['path']} -> {self.camera.width}x{self.camera.height}")
 
     def close(self) -> None:
@@ -115,8 +115,7 @@ class CameraIngestNode(Node):
             try:
                 frame = read_image(path)
             except DockGuidanceError as exc:
-                self.failures += 1
-                self.get_logger().error(f"skipped {exc}", throttle_duration_sec=5.0)
+                self.problems.report("image_file", str(exc))
                 return None
             if self.values["loop"] and len(self._decoded) < MAX_CACHED_FRAMES:
                 self._decoded[path] = frame  # a looping folder is decoded once, not at every pass
@@ -144,21 +143,21 @@ class CameraIngestNode(Node):
             self.get_logger().info("frames again")
         self._last_frame = now
         if frame.shape[:2] != (self.camera.height, self.camera.width):
-            self.failures += 1
-            self.get_logger().error(f"frame is {frame.shape[1]}x{frame.shape[0]}, camera_info says "
-                                    f"{self.camera.width}x{self.camera.height}: dropped", throttle_duration_sec=5.0)
+            self.problems.report("frame_size", f"frame is {frame.shape[1]}x{frame.shape[0]}, camera_info says "
+                                 f"{self.camera.width}x{self.camera.height}")
             return
         stamp = seconds_stamp(time.time())
         self.info_pub.publish(camera_to_info(self.camera, stamp))
         self.image_pub.publish(array_to_image(frame, stamp, self.camera.frame_id))
         self.frames += 1
 
-    def _publish_diagnostics(self) -> None:
-        level = DiagnosticStatus.WARN if self._stalled else DiagnosticStatus.OK
-        status = diagnostic_status("camera_ingest", self.values["source"], level,
-                                   "stalled" if self._stalled else "streaming",
-                                   {"frames": self.frames, "failures": self.failures, "stalls": self.stalls})
-        publish_diagnostics(self, self.diag_pub, status)
+    def diagnostics(self) -> DiagnosticStatus:
+        """Frames and stalls; WARN while stalled or refusing input."""
+        level, message = (DiagnosticStatus.WARN, "stalled") if self._stalled else (DiagnosticStatus.OK, "streaming")
+        if self.problems.recent():
+            level, message = DiagnosticStatus.WARN, f"{message}; refusing input: {self.problems.last_reason}"
+        return diagnostic_status("camera_ingest", self.values["source"], level, message,
+                                   {"frames": self.frames, "stalls": self.stalls, **self.problems.values()})
 
 
 def main(args: list[str] | None = None) -> int:

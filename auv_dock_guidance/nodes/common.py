@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 import sys
+import time
+from collections import Counter
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any
@@ -63,6 +65,40 @@ def on_parameter_change(node: Node, apply: Callable[[dict[str, Any]], str | None
         return SetParametersResult(successful=reason is None, reason=reason or "")
 
     node.add_on_set_parameters_callback(callback)
+
+
+class InputProblems:
+    """Input a node refused: counted by kind for /diagnostics, logged with its reason.
+
+    Each kind is logged at most once per ``log_every_s`` (with the running count), so a
+    stream of bad messages neither floods the log nor hides a second kind of problem.
+    """
+
+    def __init__(self, node: Node, log_every_s: float = 5.0) -> None:
+        self._logger = node.get_logger()
+        self._log_every_s = log_every_s
+        self.counts: Counter[str] = Counter()
+        self._last_seen: dict[str, float] = {}
+        self._last_logged: dict[str, float] = {}
+        self.last_reason = ""
+
+    def report(self, kind: str, reason: str) -> None:
+        now = time.monotonic()
+        self.counts[kind] += 1
+        self._last_seen[kind] = now
+        self.last_reason = f"{kind}: {reason}"
+        if now - self._last_logged.get(kind, -math.inf) >= self._log_every_s:
+            self._last_logged[kind] = now
+            self._logger.error(f"{self.last_reason} (refused, {self.counts[kind]} so far)")
+
+    def recent(self, window_s: float = 5.0) -> list[str]:
+        """Kinds refused within the last ``window_s``."""
+        now = time.monotonic()
+        return sorted(k for k, t in self._last_seen.items() if now - t <= window_s)
+
+    def values(self) -> dict[str, int]:
+        """Counts for a diagnostic's key/values (``rejected_<kind>``)."""
+        return {f"rejected_{kind}": n for kind, n in sorted(self.counts.items())}
 
 
 def diagnostic_status(name: str, hardware_id: str, level: bytes, message: str, values: dict[str, Any]) -> Any:

@@ -7,6 +7,8 @@ Publishes   dock/target (geometry_msgs/PointStamped, metres, camera optical fram
             dock/debug_image/compressed (sensor_msgs/CompressedImage, JPEG, throttled),
             /diagnostics (diagnostic_msgs/DiagnosticArray, 1 Hz)
 The image subscription keeps only the newest frame: a slow frame never queues stale ones.
+Frames whose stamp repeats or goes back, malformed frames and unusable camera info are
+refused, logged with the reason and counted on /diagnostics (WARN while it happens).
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from std_msgs.msg import Bool
 from auv_dock_guidance.errors import DockGuidanceError
 from auv_dock_guidance.geometry.camera import CameraModel
 from auv_dock_guidance.nodes.common import (
+    InputProblems,
     Param,
     declare,
     diagnostic_status,
@@ -32,7 +35,8 @@ from auv_dock_guidance.nodes.common import (
     publish_diagnostics,
     run_node,
 )
-from auv_dock_guidance.nodes.conversions import image_to_array, info_to_camera
+from auv_dock_guidance.nodes.conversions import image_to_array, info_to_camera, stamp_seconds
+from auv_dock_guidance.stamps import StampGate
 from auv_dock_guidance.vision.detector import Detector, DetectorConfig
 from auv_dock_guidance.vision.overlay import overlay_jpeg
 from auv_dock_guidance.vision.selection import SelectionConfig
@@ -85,9 +89,10 @@ class DetectorNode(Node):
         self.detected_pub = self.create_publisher(Bool, "dock/detected", 10)
         self.debug_pub = self.create_publisher(CompressedImage, "dock/debug_image/compressed", 1)
         self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
-        self.create_timer(1.0, self._publish_diagnostics)
+        self.create_timer(1.0, lambda: publish_diagnostics(self, self.diag_pub, self.diagnostics()))
         self._times: deque[tuple[float, float, bool]] = deque(maxlen=300)  # (wall time, processing s, found)
-        self._bad_frames = 0
+        self.problems = InputProblems(self)
+        self._frame_order = StampGate()
         self._last_debug = 0.0
         self._found = False
         self._warned_no_camera = False
@@ -109,7 +114,7 @@ class DetectorNode(Node):
         try:
             camera = info_to_camera(msg)
         except DockGuidanceError as exc:
-            self.get_logger().error(f"camera_info rejected: {exc}", throttle_duration_sec=10.0)
+            self.problems.report("camera_info", str(exc))
             return
         if camera != self.detector.camera:
             self.get_logger().info(f"camera model {camera.width}x{camera.height} fx {camera.fx:.1f} from camera_info")
@@ -121,13 +126,17 @@ class DetectorNode(Node):
                 self._warned_no_camera = True
                 self.get_logger().warn("no camera model yet (camera_info topic or camera_info_file): frames skipped")
             return
+        stamp = stamp_seconds(msg.header.stamp)
+        out_of_order = self._frame_order.admit(stamp)
+        if out_of_order is not None:
+            self.problems.report("frame_stamp", f"{out_of_order} (frame stamped {stamp:.3f} s)")
+            return
         start = time.perf_counter()
         try:
             frame = image_to_array(msg)
             detection = self.detector.detect(frame)
         except DockGuidanceError as exc:
-            self._bad_frames += 1
-            self.get_logger().error(f"frame rejected: {exc}", throttle_duration_sec=5.0)
+            self.problems.report("frame", str(exc))
             return
         elapsed = time.perf_counter() - start
         self._times.append((time.monotonic(), elapsed, detection.found))
@@ -167,24 +176,27 @@ class DetectorNode(Node):
                                 self.values["debug_image_scale"], self.values["debug_jpeg_quality"])
         self.debug_pub.publish(out)
 
-    def _publish_diagnostics(self) -> None:
+    def diagnostics(self) -> DiagnosticStatus:
+        """Rate, processing time, detection rate, threshold; WARN without frames or while input is refused."""
         now = time.monotonic()
         recent = [t for t in self._times if now - t[0] < 5.0]
         fps = len(recent) / 5.0
         processing = sorted(t[1] for t in recent)
         share = self.detector.threshold.fraction
-        status = diagnostic_status(
-            "detector", "camera", DiagnosticStatus.OK if recent else DiagnosticStatus.WARN,
-            f"{fps:.1f} fps" if recent else "no frames in the last 5 s",
+        level, message = (DiagnosticStatus.OK, f"{fps:.1f} fps") if recent else \
+            (DiagnosticStatus.WARN, "no frames processed in the last 5 s")
+        if self.problems.recent():
+            level, message = DiagnosticStatus.WARN, f"{message}; refusing input: {self.problems.last_reason}"
+        return diagnostic_status(
+            "detector", "camera", level, message,
             {
                 "fps": f"{fps:.2f}",
                 "processing_ms_p50": f"{1000 * processing[len(processing) // 2]:.2f}" if processing else "nan",
                 "detection_rate": f"{sum(t[2] for t in recent) / len(recent):.3f}" if recent else "0",
                 "threshold_share": f"{share:.3f}" if share is not None else "nan",
-                "rejected_frames": self._bad_frames,
+                **self.problems.values(),
             },
         )
-        publish_diagnostics(self, self.diag_pub, status)
 
 
 def main(args: list[str] | None = None) -> int:

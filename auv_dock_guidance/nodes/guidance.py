@@ -7,9 +7,11 @@ Publishes   thrusters/command (std_msgs/UInt16MultiArray: pulse widths in us for
             guidance/demands (geometry_msgs/Vector3Stamped: x surge, y yaw, z pitch, normalized),
             guidance/setpoint (geometry_msgs/Vector3Stamped: x yaw rad, y pitch rad, z speed m/s;
             stamped with the camera frame that produced it),
-            guidance/state (std_msgs/String), guidance/transition (std_msgs/String, latched)
+            guidance/state (std_msgs/String), guidance/transition (std_msgs/String, latched),
+            /diagnostics (1 Hz: state, input ages, refused input)
 Service     guidance/reset (std_srvs/Trigger): back to SEARCH (re-arm after DOCKED or ABORT)
 A new target is acted on at once (lowest latency); a timer runs the inner loop between frames.
+Non-finite, repeated or out-of-order targets and IMU messages are refused, logged and counted.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PointStamped, Vector3Stamped
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile
@@ -25,12 +28,21 @@ from std_msgs.msg import Bool, Float64, MultiArrayDimension, String, UInt16Multi
 from std_srvs.srv import Trigger
 
 from auv_dock_guidance.control.cascade import CascadeConfig, Target
-from auv_dock_guidance.control.guidance import Guidance, GuidanceConfig, GuidanceOutput
+from auv_dock_guidance.control.guidance import Guidance, GuidanceConfig, GuidanceOutput, State
 from auv_dock_guidance.control.mixer import MixerConfig
 from auv_dock_guidance.control.pid import PidGains
 from auv_dock_guidance.errors import DockGuidanceError
-from auv_dock_guidance.nodes.common import Param, declare, on_parameter_change, run_node
+from auv_dock_guidance.nodes.common import (
+    InputProblems,
+    Param,
+    declare,
+    diagnostic_status,
+    on_parameter_change,
+    publish_diagnostics,
+    run_node,
+)
 from auv_dock_guidance.nodes.conversions import imu_to_attitude, seconds_stamp, stamp_seconds
+from auv_dock_guidance.stamps import StampGate
 
 PARAMS = [
     Param("control_rate_hz", 50.0, "inner-loop rate between camera frames (Hz)", 5.0, 500.0, read_only=True),
@@ -41,6 +53,7 @@ PARAMS = [
     Param("track_lost_timeout_s", 2.0, "marker lost this long while tracking: back to search (s)", 0.1, 60.0),
     Param("terminal_lost_timeout_s", 3.0, "marker lost this long in terminal while it should be visible: abort (s)",
           0.1, 60.0),
+    Param("terminal_blind_timeout_s", 12.0, "no detection at all this long in terminal: abort (s)", 0.5, 120.0),
     Param("search_timeout_s", 120.0, "no marker this long: abort (s)", 1.0, 3600.0),
     Param("telemetry_timeout_s", 0.5, "telemetry older than this: abort (s)", 0.05, 10.0),
     Param("camera_timeout_s", 1.0, "no processed camera frame this long while driving: abort (s)", 0.1, 10.0),
@@ -69,6 +82,7 @@ def guidance_config(v: dict[str, Any], mixer: MixerConfig) -> GuidanceConfig:
     return GuidanceConfig(
         confirm_frames=v["confirm_frames"], terminal_range_m=v["terminal_range_m"], blind_range_m=v["blind_range_m"],
         track_lost_timeout_s=v["track_lost_timeout_s"], terminal_lost_timeout_s=v["terminal_lost_timeout_s"],
+        terminal_blind_timeout_s=v["terminal_blind_timeout_s"],
         search_timeout_s=v["search_timeout_s"], telemetry_timeout_s=v["telemetry_timeout_s"],
         camera_timeout_s=v["camera_timeout_s"], recovery_s=v["recovery_s"],
         cascade=cascade, mixer=mixer,
@@ -94,12 +108,18 @@ class GuidanceNode(Node):
         self.state_pub = self.create_publisher(String, "guidance/state", 10)
         latched = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.transition_pub = self.create_publisher(String, "guidance/transition", latched)
+        self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_service(Trigger, "guidance/reset", self._on_reset)
         self.create_timer(1.0 / self.values["control_rate_hz"], self._on_timer)
         self.create_timer(1.0, self._publish_state)
+        self.create_timer(1.0, lambda: publish_diagnostics(self, self.diag_pub, self.diagnostics()))
+        self.problems = InputProblems(self)
+        self._imu_order = StampGate()
         self._attitude = None
         self._depth = 0.0
         self._docked = False
+        self._clock_steps_logged = 0
+        self._last_transition = "none"
         self._layout = [MultiArrayDimension(label=name, size=1, stride=1) for name in self.mixer_config.names]
 
     def _apply_parameters(self, changes: dict[str, Any]) -> str | None:
@@ -113,11 +133,22 @@ class GuidanceNode(Node):
         return None
 
     def _on_imu(self, msg: Imu) -> None:
-        self._attitude = imu_to_attitude(msg, self._depth)
+        attitude = imu_to_attitude(msg, self._depth)
+        if not attitude.is_valid():
+            q = msg.orientation
+            self.problems.report("imu", f"orientation ({q.x}, {q.y}, {q.z}, {q.w}) is not a finite rotation")
+            return
+        out_of_order = self._imu_order.admit(attitude.stamp_s)
+        if out_of_order is not None:
+            self.problems.report("imu_stamp", f"{out_of_order} (stamped {attitude.stamp_s:.3f} s)")
+            return
+        self._attitude = attitude
 
     def _on_depth(self, msg: Float64) -> None:
-        if math.isfinite(msg.data):
-            self._depth = msg.data
+        if not math.isfinite(msg.data):
+            self.problems.report("depth", f"depth {msg.data} is not a finite number")
+            return
+        self._depth = msg.data
 
     def _on_docked(self, msg: Bool) -> None:
         self._docked = msg.data
@@ -138,11 +169,7 @@ class GuidanceNode(Node):
 
     def _on_target(self, msg: PointStamped) -> None:
         p = msg.point
-        target = Target(stamp_seconds(msg.header.stamp), p.z, p.x, p.y)
-        if not target.is_valid():
-            self.get_logger().warn(f"invalid target ignored: {p.x}, {p.y}, {p.z}", throttle_duration_sec=5.0)
-            return
-        self._step(target)
+        self._step(Target(stamp_seconds(msg.header.stamp), p.z, p.x, p.y))
 
     def _on_timer(self) -> None:
         self._step(None)
@@ -150,9 +177,16 @@ class GuidanceNode(Node):
     def _step(self, target: Target | None) -> None:
         now = self.get_clock().now().nanoseconds * 1e-9
         out = self.guidance.update(now, target, self._attitude, self._docked)
+        if out.rejected is not None:
+            self.problems.report("target", out.rejected)
+            target = None
+        if self.guidance.clock_steps_back != self._clock_steps_logged:
+            self._clock_steps_logged = self.guidance.clock_steps_back
+            self.get_logger().warn("the clock stepped back: timers continue from the elapsed time, loops restart")
         if out.transition is not None:
             t = out.transition
             line = f"{t.previous.value} -> {t.state.value}: {t.reason}"
+            self._last_transition = line
             self.get_logger().info(line)
             self.transition_pub.publish(String(data=line))
             self._publish_state()
@@ -179,6 +213,21 @@ class GuidanceNode(Node):
 
     def _publish_state(self) -> None:
         self.state_pub.publish(String(data=self.guidance.state.value))
+
+    def diagnostics(self) -> DiagnosticStatus:
+        """State and why; ERROR in ABORT, WARN while input is refused."""
+        state = self.guidance.state
+        now = self.get_clock().now().nanoseconds * 1e-9
+        telemetry_age = now - self._attitude.stamp_s if self._attitude is not None else math.inf
+        level, message = (DiagnosticStatus.ERROR, f"ABORT ({self._last_transition})") if state is State.ABORT \
+            else (DiagnosticStatus.OK, state.value)
+        if level == DiagnosticStatus.OK and self.problems.recent():
+            level, message = DiagnosticStatus.WARN, f"{state.value}; refusing input: {self.problems.last_reason}"
+        return diagnostic_status("guidance", "guidance", level, message, {
+            "state": state.value, "last_transition": self._last_transition,
+            "telemetry_age_s": f"{telemetry_age:.3f}", "clock_steps_back": self.guidance.clock_steps_back,
+            **self.problems.values(),
+        })
 
 
 def main(args: list[str] | None = None) -> int:

@@ -10,7 +10,8 @@ Publishes   vehicle/imu (sensor_msgs/Imu, REP 103), vehicle/depth (std_msgs/Floa
 Service     bridge/arm (std_srvs/SetBool)
 Only the guidance node's topic drives the thrusters, and only while armed: if any other
 node publishes on it, the bridge disarms and says so. With no fresh command for
-failsafe_timeout_s the bridge sends neutral on every tick.
+failsafe_timeout_s the bridge sends neutral on every tick. Garbage on the line, telemetry
+with non-finite values and malformed commands are refused, logged and counted.
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ from auv_dock_guidance.link.bridge import LinkBridge
 from auv_dock_guidance.link.protocol import Status, TelemetryMsg
 from auv_dock_guidance.link.transport import SerialTransport
 from auv_dock_guidance.nodes.common import (
+    InputProblems,
     Param,
     declare,
     diagnostic_status,
@@ -82,7 +84,7 @@ class SerialBridgeNode(Node):
         self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_service(SetBool, "bridge/arm", self._on_arm)
         self.create_timer(1.0 / self.values["tick_rate_hz"], self._on_tick)
-        self.create_timer(1.0, self._publish_diagnostics)
+        self.create_timer(1.0, lambda: publish_diagnostics(self, self.diag_pub, self.diagnostics()))
         self.create_timer(0.5, self._check_command_publishers)
         self._foreign: list[str] = []
         self._checked_at = -math.inf
@@ -93,6 +95,8 @@ class SerialBridgeNode(Node):
         self._timed_stamp: float | None = None
         self._last_telemetry_seq: int | None = None
         self._connected = False
+        self.problems = InputProblems(self)
+        self._garbage_seen = 0  # decoder errors and dropped bytes already reported
         if self.values["arm_on_start"]:
             self._set_armed(True, "arm_on_start")
 
@@ -152,8 +156,7 @@ class SerialBridgeNode(Node):
         if not self._sender_trusted():
             return  # refused while anyone but guidance publishes commands
         if len(msg.data) != 4:
-            self.get_logger().error(f"thruster command with {len(msg.data)} values ignored (need 4)",
-                                    throttle_duration_sec=5.0)
+            self.problems.report("command", f"thruster command with {len(msg.data)} values (need 4)")
             return
         self.bridge.command([float(x) for x in msg.data])
         self._record_latency()
@@ -178,7 +181,10 @@ class SerialBridgeNode(Node):
         if self.mavlink is not None:
             self._tick_mavlink()
             return
-        self.bridge.tick()
+        for frame in self.bridge.tick():
+            if isinstance(frame.message, TelemetryMsg) and not frame.message.is_finite():
+                self.problems.report("telemetry", f"non-finite attitude or depth from the main controller: {frame.message}")
+        self._report_garbage()
         if self.transport.connected != self._connected:
             self._connected = self.transport.connected
             self.get_logger().info(f"serial port {self.transport.port} {'open' if self._connected else 'lost'}")
@@ -186,6 +192,14 @@ class SerialBridgeNode(Node):
         if telemetry is not None and self.bridge.telemetry_time is not None and telemetry.time_ms != self._last_telemetry_seq:
             self._last_telemetry_seq = telemetry.time_ms
             self._publish_telemetry(telemetry)
+
+    def _report_garbage(self) -> None:
+        d = self.bridge.decoder.stats
+        garbage = d.crc_errors + d.length_errors + d.unknown_ids + d.version_errors + d.bytes_dropped
+        if garbage != self._garbage_seen:
+            self._garbage_seen = garbage
+            self.problems.report("serial_bytes", f"garbage on {self.transport.port}: {d.crc_errors} CRC errors, "
+                                 f"{d.length_errors} bad lengths, {d.bytes_dropped} bytes dropped so far")
 
     def _tick_mavlink(self) -> None:
         assert self.mavlink is not None
@@ -207,7 +221,8 @@ class SerialBridgeNode(Node):
         self.armed_pub.publish(Bool(data=bool(t.status & Status.ARMED)))
         self.docked_pub.publish(Bool(data=bool(t.status & Status.DOCKED)))
 
-    def _publish_diagnostics(self) -> None:
+    def diagnostics(self) -> DiagnosticStatus:
+        """Link health: ERROR without the port or with a foreign publisher; WARN without telemetry or refusing input."""
         s, d, ts = self.bridge.stats, self.bridge.decoder.stats, self.transport.stats
         age = time.monotonic() - self.bridge.telemetry_time if self.bridge.telemetry_time is not None else math.inf
         if self._foreign:
@@ -216,16 +231,17 @@ class SerialBridgeNode(Node):
             level, message = DiagnosticStatus.ERROR, "serial port not open"
         elif age > 0.5:
             level, message = DiagnosticStatus.WARN, "no telemetry from the main controller"
+        elif self.problems.recent():
+            level, message = DiagnosticStatus.WARN, f"refusing input: {self.problems.last_reason}"
         else:
             level, message = DiagnosticStatus.OK, "armed" if self.bridge.armed else "disarmed"
-        status = diagnostic_status("serial_bridge", self.transport.port, level, message, {
+        return diagnostic_status("serial_bridge", self.transport.port, level, message, {
             "armed": self.bridge.armed, "in_failsafe": self.bridge.in_failsafe,
             "failsafe_events": s.failsafe_events, "commands_sent": s.commands_sent,
             "rejected_values": s.rejected_values, "frames_received": d.frames, "crc_errors": d.crc_errors,
             "bytes_dropped": d.bytes_dropped, "reconnects": max(0, ts.opens - 1), "telemetry_age_s": f"{age:.3f}",
-            "foreign_command_publishers": ", ".join(self._foreign) or "none",
+            "foreign_command_publishers": ", ".join(self._foreign) or "none", **self.problems.values(),
         })
-        publish_diagnostics(self, self.diag_pub, status)
 
 
 def main(args: list[str] | None = None) -> int:

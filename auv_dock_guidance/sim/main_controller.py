@@ -5,17 +5,24 @@ sends telemetry at a fixed rate, and keeps its own watchdog (neutral and the FAI
 status bit after ``watchdog_s`` without a command). Every command that arrives is logged
 with its arrival time, so tests and `auv-dock link-selftest` can measure what the
 vehicle really saw.
+
+The bridge opens ``port``, a symbolic link to the pseudo-terminal, as a vehicle opens its
+adapter's /dev/serial/by-id link: ``unplug()`` closes the terminal and removes the link,
+and the re-plugged device comes back as a new terminal behind the same link.
 """
 
 from __future__ import annotations
 
 import math
 import os
+import shutil
+import tempfile
 import threading
 import time
 import tty
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Protocol
 
 from auv_dock_guidance.control.mixer import DEFAULT_ALLOCATION
@@ -79,7 +86,11 @@ class CommandRecord:
 
 
 class MainControllerSim:
-    """Run in a background thread; ``port`` is the pseudo-terminal the bridge opens."""
+    """Run in a background thread; ``port`` is the link to the pseudo-terminal the bridge opens.
+
+    ``link``: where to put that link (replaced if it is one already); default a private
+    temporary folder.
+    """
 
     def __init__(
         self,
@@ -87,6 +98,7 @@ class MainControllerSim:
         telemetry_hz: float = 50.0,
         watchdog_s: float = 0.5,
         clock: Callable[[], float] = time.monotonic,
+        link: Path | None = None,
     ) -> None:
         self.vehicle = vehicle or SimpleVehicle()
         self.telemetry_hz = telemetry_hz
@@ -103,15 +115,42 @@ class MainControllerSim:
         self._seq = 0
         self._failsafe = False
         self._silent_until = -math.inf
-        self._master, slave = os.openpty()
-        tty.setraw(self._master)
-        tty.setraw(slave)
-        self.port = os.ttyname(slave)
-        self._slave = slave  # kept open so the pty survives the bridge reconnecting
-        os.set_blocking(self._master, False)
+        self._unplug_for: float | None = None  # requested by unplug(), done by the controller thread
+        self._replug_at: float | None = None
+        self._own_folder = None if link is not None else tempfile.mkdtemp(prefix="main-controller-")
+        self._link = link if link is not None else Path(self._own_folder, "main_controller")  # type: ignore[arg-type]
+        if self._link.exists() and not self._link.is_symlink():
+            raise FileExistsError(f"{self._link} exists and is not a symbolic link; not replacing it")
+        self.port = str(self._link)
+        self._master = self._slave = -1
+        self._fd_lock = threading.Lock()  # inject() writes from other threads while the terminal may change
+        self._plug_in()
         self._stop = threading.Event()
         self._lock = threading.Lock()
         self._thread: threading.Thread | None = None
+
+    def _plug_in(self) -> None:
+        """A new pseudo-terminal behind the link."""
+        master, slave = os.openpty()  # the slave stays open so the pty survives reconnects
+        tty.setraw(master)
+        tty.setraw(slave)
+        os.set_blocking(master, False)
+        with self._fd_lock:
+            self._master, self._slave = master, slave
+        self.pty_name = os.ttyname(slave)
+        if self._link.is_symlink():
+            self._link.unlink()
+        os.symlink(self.pty_name, self._link)
+
+    def _pull_out(self) -> None:
+        """The terminal and its link vanish: the bridge's reads and writes fail."""
+        if self._link.is_symlink():
+            self._link.unlink()
+        with self._fd_lock:
+            for fd in (self._master, self._slave):
+                if fd >= 0:
+                    os.close(fd)
+            self._master = self._slave = -1
 
     def start(self) -> MainControllerSim:
         self._thread = threading.Thread(target=self._run, name="main-controller-sim", daemon=True)
@@ -122,11 +161,9 @@ class MainControllerSim:
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=2.0)
-        for fd in (self._master, self._slave):
-            try:
-                os.close(fd)
-            except OSError:
-                pass
+        self._pull_out()
+        if self._own_folder is not None:
+            shutil.rmtree(self._own_folder, ignore_errors=True)
 
     def __enter__(self) -> MainControllerSim:
         return self.start()
@@ -138,6 +175,21 @@ class MainControllerSim:
         """Fault injection: send no telemetry for a while (the navigation system hangs)."""
         self._silent_until = self.clock() + seconds
 
+    def unplug(self, seconds: float) -> None:
+        """Fault injection: the cable is pulled for ``seconds``, then put back (a new terminal, same link).
+
+        The controller keeps running meanwhile: its watchdog sets neutral, as a real one would.
+        """
+        self._unplug_for = seconds
+
+    @property
+    def plugged(self) -> bool:
+        return self._master >= 0
+
+    def inject(self, data: bytes) -> None:
+        """Fault injection: raw bytes on the line (noise, a corrupt or implausible frame)."""
+        self._write(data)
+
     def records(self) -> list[CommandRecord]:
         with self._lock:
             return list(self.log)
@@ -147,8 +199,14 @@ class MainControllerSim:
         last = self.clock()
         next_telemetry = last
         while not self._stop.is_set():
-            self._read()
             now = self.clock()
+            if self._unplug_for is not None:
+                self._pull_out()
+                self._replug_at, self._unplug_for = now + self._unplug_for, None
+            if self._replug_at is not None and now >= self._replug_at:
+                self._plug_in()
+                self._replug_at = None
+            self._read()
             if now - self._last_command_time > self.watchdog_s and self.applied != NEUTRAL:
                 self.applied, self._failsafe = NEUTRAL, True
             self.state = self.vehicle.step(self.applied if self.armed else NEUTRAL, now - last)
@@ -191,7 +249,10 @@ class MainControllerSim:
         return encode(msg, self._seq)
 
     def _write(self, data: bytes) -> None:
-        try:
-            os.write(self._master, data)
-        except (BlockingIOError, OSError):
-            pass  # nobody reading: a real UART drops bytes too
+        with self._fd_lock:
+            if self._master < 0:
+                return  # unplugged
+            try:
+                os.write(self._master, data)
+            except (BlockingIOError, OSError):
+                pass  # nobody reading: a real UART drops bytes too

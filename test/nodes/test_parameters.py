@@ -9,13 +9,6 @@ from auv_dock_guidance.nodes.detector import DetectorNode
 from auv_dock_guidance.nodes.guidance import GuidanceNode
 
 
-@pytest.fixture()
-def ros(domain_id):
-    rclpy.init(domain_id=domain_id)
-    yield
-    rclpy.try_shutdown()
-
-
 def test_detector_threshold_can_change_at_run_time_but_not_into_nonsense(ros):
     node = DetectorNode()
     try:
@@ -42,10 +35,11 @@ def test_guidance_gains_change_at_run_time(ros):
         node.destroy_node()
 
 
-def test_out_of_range_value_at_start_is_refused(domain_id):
-    rclpy.init(domain_id=domain_id, args=["--ros-args", "-p", "marker_radius_m:=-0.35"])
+@pytest.mark.parametrize("value", ["-0.35", ".nan", ".inf"])
+def test_out_of_range_or_non_finite_value_at_start_is_refused(domain_id, value):
+    rclpy.init(domain_id=domain_id, args=["--ros-args", "-p", f"marker_radius_m:={value}"])
     try:
-        with pytest.raises(InvalidParameterValueException):
+        with pytest.raises(InvalidParameterValueException, match="marker_radius_m out of range"):
             DetectorNode()
     finally:
         rclpy.try_shutdown()
