@@ -2,9 +2,10 @@
 
 * Commands are validated before they can reach the wire: a non-finite pulse width
   becomes neutral, anything else is clamped to [pwm_min, pwm_max].
-* Disarmed, or with no fresh command for ``failsafe_timeout_s`` (default 200 ms), the
+* Disarmed, or with no fresh command for ``failsafe_timeout_s`` (default 150 ms), the
   bridge sends neutral on every tick instead; the first neutral goes out on the first
-  tick after the deadline, so ticks must run well faster than the timeout (50 Hz).
+  tick after the timeout, so with 50 Hz ticks it is on the wire within 200 ms of the
+  last command (the deadline the vehicle needs).
 * Telemetry is decoded from the same stream; heartbeats go out once a second.
 """
 
@@ -43,7 +44,7 @@ class BridgeStats:
 class LinkBridge:
     transport: SerialTransport
     pwm: PwmConfig = field(default_factory=PwmConfig)
-    failsafe_timeout_s: float = 0.2
+    failsafe_timeout_s: float = 0.15
     heartbeat_period_s: float = 1.0
     clock: Callable[[], float] = time.monotonic
 

@@ -49,7 +49,7 @@ PARAMS = [
     Param("baudrate", 115200, "serial speed", 1200, 4000000, read_only=True),
     Param("link_type", "serial", "serial (this package's protocol) or mavlink (ArduSub)", read_only=True),
     Param("thrusters_file", "", "thruster YAML for the PWM limits (empty: defaults)", read_only=True),
-    Param("failsafe_timeout_s", 0.2, "no command this long: neutral (s)", 0.02, 5.0),
+    Param("failsafe_timeout_s", 0.15, "no command this long: neutral at the next tick (s)", 0.02, 5.0),
     Param("tick_rate_hz", 50.0, "failsafe, heartbeat and telemetry rate (Hz)", 10.0, 1000.0, read_only=True),
     Param("arm_on_start", False, "arm at start (the demo); on a vehicle arm through the bridge/arm service"),
     Param("imu_frame_id", "base_link", "frame_id of the published Imu", read_only=True),

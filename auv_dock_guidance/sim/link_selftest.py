@@ -34,7 +34,7 @@ class SelftestReport:
 
 
 def run_selftest(
-    seconds: float = 3.0, command_hz: float = 30.0, tick_hz: float = 100.0,
+    seconds: float = 3.0, command_hz: float = 30.0, tick_hz: float = 50.0,  # the node's tick rate
     progress: Callable[[int, int], None] | None = None,
 ) -> SelftestReport:
     with MainControllerSim() as controller:

@@ -4,6 +4,7 @@ import time
 import serial
 
 from auv_dock_guidance.link.bridge import LinkBridge
+from auv_dock_guidance.link.protocol import StreamDecoder, ThrusterCommandMsg
 from auv_dock_guidance.link.transport import SerialTransport
 from auv_dock_guidance.sim.main_controller import MainControllerSim
 
@@ -29,18 +30,64 @@ def test_commands_reach_the_controller_and_telemetry_comes_back():
         bridge.transport.close()
 
 
-def test_failsafe_sends_neutral_soon_after_commands_stop():
-    with MainControllerSim(watchdog_s=5.0) as controller:  # the controller's own watchdog stays out of it
+class RecordingTransport:
+    """Stands in for the serial port: decodes what the bridge writes, stamped with the bridge's clock."""
+
+    connected = True
+
+    def __init__(self, clock) -> None:
+        self.clock = clock
+        self.sent: list[tuple[float, object]] = []
+        self._decoder = StreamDecoder()
+
+    def write(self, data: bytes) -> bool:
+        self.sent += [(self.clock(), frame.message) for frame in self._decoder.feed(data)]
+        return True
+
+    def read(self) -> bytes:
+        return b""
+
+
+def test_failsafe_sends_neutral_at_the_first_tick_past_the_timeout_within_200_ms():
+    tick_s = 0.02  # 50 Hz
+    ticks = [0]
+    clock = lambda: ticks[0] * tick_s  # noqa: E731
+    transport = RecordingTransport(clock)
+    bridge = LinkBridge(transport, clock=clock)  # the default timeout
+    bridge.set_armed(True)
+    for _ in range(10):
+        bridge.command([1700, 1700, 1700, 1700])
+        bridge.tick()
+        ticks[0] += 1
+    last_command = clock() - tick_s
+    for _ in range(20):  # guidance has stopped
+        bridge.tick()
+        ticks[0] += 1
+    after = [(t, m.pwm_us) for t, m in transport.sent if isinstance(m, ThrusterCommandMsg) and t > last_command]
+    first_neutral = after[0][0]
+    assert all(pwm == NEUTRAL for _, pwm in after)  # nothing but neutral once commands stop
+    assert first_neutral - last_command > bridge.failsafe_timeout_s - 1e-9  # not before the timeout
+    assert first_neutral - last_command <= bridge.failsafe_timeout_s + tick_s + 1e-9  # but at the first tick past it
+    assert first_neutral - last_command <= 0.2  # the vehicle's deadline
+    assert len(after) >= 5 and bridge.stats.failsafe_events == 1  # neutral again on every tick, one event
+    bridge.command([1600, 1600, 1600, 1600])  # commands again: forwarded at once
+    assert transport.sent[-1][1].pwm_us == (1600, 1600, 1600, 1600)
+
+
+def test_bridge_finds_the_controller_again_after_the_cable_is_pulled_and_put_back():
+    with MainControllerSim() as controller:
         bridge = LinkBridge(SerialTransport(controller.port))
         bridge.set_armed(True)
-        _pump(bridge, 0.3, [1700, 1700, 1700, 1700])
-        last = bridge.last_command_time
-        _pump(bridge, 0.6)
-        neutral = [r for r in controller.records() if r.time_s > last and r.pwm_us == NEUTRAL]
-        assert neutral, "no neutral command reached the controller"
-        assert neutral[0].time_s - last < 0.4  # configured 0.2 s; generous bound for a loaded machine
-        assert controller.applied == NEUTRAL
-        assert bridge.stats.failsafe_events == 1
+        _pump(bridge, 0.3, [1600, 1600, 1600, 1600])
+        assert controller.applied == (1600, 1600, 1600, 1600)
+        controller.unplug(0.6)
+        _pump(bridge, 0.4, [1600, 1600, 1600, 1600])
+        assert not controller.plugged and not bridge.transport.connected
+        _pump(bridge, 3.0, [1650, 1650, 1650, 1650])  # back-off reaches at most 2 s
+        assert controller.plugged
+        assert bridge.transport.connected and bridge.transport.stats.opens == 2
+        assert controller.applied == (1650, 1650, 1650, 1650)
+        assert bridge.telemetry_time is not None and time.monotonic() - bridge.telemetry_time < 0.5
         bridge.transport.close()
 
 
