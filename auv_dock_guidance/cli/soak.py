@@ -1,10 +1,22 @@
 """`auv-dock soak`: the full simulated system for a long run, with faults injected and survived.
 
-Faults, in turn, each while the vehicle is tracking the dock: the navigation stops
-sending telemetry for 1.5 s; the guidance node is killed (and restarted); the detector
-node is killed (and restarted). For each it checks that neutral pulses reach the main
-controller within its deadline, and that the system tracks the dock again afterwards.
-When the vehicle docks or stalls it is put back at a new start and guidance re-armed.
+Faults, in turn, each while the vehicle is tracking the dock (farther than 4 m):
+
+  telemetry_pause   the main controller sends no telemetry for 1.5 s
+  guidance_killed   the guidance process is killed, and restarted 2 s later
+  detector_killed   the vision process (camera and detector) is killed, and restarted
+  camera_stalled    the vision process is frozen for 2.5 s (SIGSTOP), then resumed
+  serial_unplugged  the main controller's serial device vanishes for 1.5 s, then returns
+  line_noise        3 s of random bytes on the serial line between telemetry frames
+
+What each must cause: neutral pulses at the main controller within the deadline (the
+bridge's failsafe for a dead guidance; guidance's ABORT for lost telemetry or camera);
+after a re-plug, neutral before anything else; through line noise, tracking goes on.
+A reaction that comes too late is a deadline miss; one that is wrong (no neutral at all,
+thrust right after a re-plug, an abort under line noise) is a wrong reaction. A fault is
+survived when the system tracks the dock again within 30 s with every node process
+running. When the vehicle docks or stalls it is put back at a new start and
+guidance re-armed.
 """
 
 from __future__ import annotations
@@ -14,6 +26,8 @@ import math
 import signal
 import tempfile
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +38,65 @@ from auv_dock_guidance.launcher import rss_mb
 from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
 
 NEUTRAL = (1500, 1500, 1500, 1500)
-FAULTS = ("telemetry_pause", "guidance_killed", "detector_killed")
+VISION = "vision_pipeline"  # the process of camera_ingest and detector
+FAILSAFE_DEADLINE_S = 0.2  # neutral at the thrusters within 200 ms of the last command
+TELEMETRY_DEADLINE_S = 0.5 + 0.1  # guidance's telemetry timeout plus a control tick and transport
+CAMERA_DEADLINE_S = 1.0 + 0.6  # guidance's camera timeout, as above
+RECOVERY_S = 30.0
+
+
+@dataclass(frozen=True)
+class Fault:
+    name: str
+    inject: Callable[[object], None]  # called with the SimulatedSystem
+    hold_s: float  # observed this long before it is cleared
+    clear: Callable[[object], None]
+    neutral_within_s: float | None  # None: thrust must go on through it
+    from_last_command: bool = False  # the deadline counts from the last command, not the fault
+    neutral_after_s: float | None = None  # the link is down until then: the first command after it must be neutral
+
+
+@dataclass(frozen=True)
+class Outcome:
+    reaction_ms: float | None = None  # time to neutral (to the link back, after a re-plug)
+    late: str | None = None  # the deadline was missed
+    wrong: str | None = None  # the reaction itself was wrong
+
+
+def _nothing(system) -> None:
+    pass
+
+
+def _signal(process: str, sig: signal.Signals) -> Callable[[object], None]:
+    def send(system) -> None:
+        p = system.group.processes[process]
+        p.send_signal(sig)
+        if sig == signal.SIGKILL:
+            p.wait(timeout=5)
+    return send
+
+
+def _restart(process: str) -> Callable[[object], None]:
+    return lambda system: system.group.restart(process)
+
+
+def _line_noise(system) -> None:
+    rng = np.random.default_rng()
+    end = time.monotonic() + 3.0
+    while time.monotonic() < end:
+        system.controller.inject(rng.integers(0, 256, 120, dtype=np.uint8).tobytes())
+        system.spin(0.05)
+
+
+FAULTS = (
+    Fault("telemetry_pause", lambda s: s.controller.pause_telemetry(1.5), 2.0, _nothing, TELEMETRY_DEADLINE_S),
+    Fault("guidance_killed", _signal("guidance", signal.SIGKILL), 2.0, _restart("guidance"), FAILSAFE_DEADLINE_S,
+          from_last_command=True),
+    Fault("detector_killed", _signal(VISION, signal.SIGKILL), 2.0, _restart(VISION), CAMERA_DEADLINE_S),
+    Fault("camera_stalled", _signal(VISION, signal.SIGSTOP), 2.5, _signal(VISION, signal.SIGCONT), CAMERA_DEADLINE_S),
+    Fault("serial_unplugged", lambda s: s.controller.unplug(1.5), 4.0, _nothing, None, neutral_after_s=1.5),
+    Fault("line_noise", _line_noise, 0.5, _nothing, None),
+)
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -52,15 +124,16 @@ def run(args: argparse.Namespace) -> int:
     system = SimulatedSystem(world, _start_pose(rng, world), logs)
     state = {"value": "starting"}
     frames = [0]
+    transitions: list[tuple[float, str]] = []
     system.node.create_subscription(String, "guidance/state", lambda m: state.__setitem__("value", m.data), 10)
+    system.node.create_subscription(String, "guidance/transition",
+                                    lambda m: transitions.append((time.monotonic(), m.data)), 10)
     system.node.create_subscription(Bool, "dock/detected", lambda m: frames.__setitem__(0, frames[0] + 1), 100)
     system.start()
     group = system.group
-    deadline_s = 0.2 + 0.05  # the bridge's failsafe timeout plus two 50 Hz ticks
-    telemetry_deadline_s = 0.5 + 0.1  # guidance's telemetry timeout plus a control tick and transport
     injected: list[str] = []
     survived: list[str] = []
-    misses: list[str] = []
+    outcomes: list[Outcome] = []
     dockings = 0
     t0 = time.monotonic()
     end = t0 + args.minutes * 60.0
@@ -80,12 +153,10 @@ def run(args: argparse.Namespace) -> int:
                 continue
             if time.monotonic() >= next_fault and state["value"] == "TRACK" and range_left > 4.0:
                 fault = FAULTS[len(injected) % len(FAULTS)]
-                injected.append(fault)
-                ok, miss = _inject(fault, system, deadline_s, telemetry_deadline_s, state)
-                if miss:
-                    misses.append(miss)
-                if ok:
-                    survived.append(fault)
+                injected.append(fault.name)
+                outcomes.append(_inject(fault, system, transitions))
+                if _recovered(system, state):
+                    survived.append(fault.name)
                 next_fault = time.monotonic() + args.fault_every
         rss_end = sum(rss_mb(p.pid) for p in group.processes.values())
     except KeyboardInterrupt:
@@ -93,53 +164,68 @@ def run(args: argparse.Namespace) -> int:
     finally:
         codes = system.stop()
     minutes = (time.monotonic() - t0) / 60.0
+    late = [o.late for o in outcomes if o.late]
+    wrong = [o.wrong for o in outcomes if o.wrong]
+    worst_ms: dict[str, float] = {}
+    for name, outcome in zip(injected, outcomes):
+        if outcome.reaction_ms is not None:
+            worst_ms[name] = max(outcome.reaction_ms, worst_ms.get(name, 0.0))
     report = {
-        "minutes": rounded(minutes, 2), "frames": frames[0], "deadline_misses": len(misses),
+        "minutes": rounded(minutes, 2), "frames": frames[0], "deadline_misses": len(late),
         "rss_start_mb": rounded(rss_start, 1), "rss_end_mb": rounded(rss_end, 1),
         "rss_growth_pct": rounded(100.0 * (rss_end - rss_start) / rss_start, 1) if rss_start else None,
         "faults_injected": len(injected), "faults_survived": len(survived), "dockings": dockings,
-        "faults": injected, "misses": misses, "node_exit_codes": codes, "logs": str(logs),
+        "worst_reaction_ms": {k: rounded(v, 0) for k, v in worst_ms.items()},
+        "faults": injected, "late": late, "wrong_reactions": wrong, "node_exit_codes": codes, "logs": str(logs),
     }
     if args.json:
         print_json(report)
     else:
         for key, value in report.items():
             print(f"{key:18}{value}")
-    return 0 if not misses and len(survived) == len(injected) else 1
+    return 0 if not late and not wrong and len(survived) == len(injected) else 1
 
 
-def _inject(fault: str, system, deadline_s: float, telemetry_deadline_s: float, state: dict) -> tuple[bool, str | None]:
-    """Inject one fault; (survived, deadline miss description or None)."""
-    controller, group = system.controller, system.group
+def _inject(fault: Fault, system, transitions: list[tuple[float, str]]) -> Outcome:
+    """Inject, observe, clear, and judge what reached the main controller."""
     start = time.monotonic()
-    if fault == "telemetry_pause":
-        controller.pause_telemetry(1.5)
-        limit = telemetry_deadline_s
-    else:
-        node = "guidance" if fault == "guidance_killed" else "vision_pipeline"  # the detector's process
-        group.processes[node].send_signal(signal.SIGKILL)
-        group.processes[node].wait(timeout=5)
-        limit = deadline_s if node == "guidance" else 1.0 + telemetry_deadline_s  # camera timeout for the detector
-    system.spin(2.0)
-    records = [r for r in controller.records() if r.time_s >= start - 1.0]
+    fault.inject(system)
+    system.spin(fault.hold_s)
+    fault.clear(system)
+    records = [r for r in system.controller.records() if r.time_s >= start - 1.0]
     driving = [r for r in records if r.pwm_us != NEUTRAL and r.time_s < start + 0.05]
-    neutral = [r for r in records if r.pwm_us == NEUTRAL and r.time_s >= start]
-    miss = None
-    if driving and neutral:
-        delay = neutral[0].time_s - max(start, driving[-1].time_s) if fault == "telemetry_pause" \
-            else neutral[0].time_s - driving[-1].time_s
-        if delay > limit:
-            miss = f"{fault}: neutral after {1000 * delay:.0f} ms (limit {1000 * limit:.0f} ms)"
-    elif driving and not neutral:
-        miss = f"{fault}: no neutral command reached the controller"
-    if fault != "telemetry_pause":
-        group.restart("guidance" if fault == "guidance_killed" else "vision_pipeline")
-        if fault == "guidance_killed":
-            system.spin(4.0)
-            system.reposition(system.vehicle.pose)  # the new guidance starts in SEARCH anyway
-    recovered_by = time.monotonic() + 25.0
-    while time.monotonic() < recovered_by:
+    if not driving:
+        return Outcome()  # nothing was moving: nothing to stop
+    name = fault.name
+    if fault.neutral_within_s is not None:
+        neutral = [r for r in records if r.pwm_us == NEUTRAL and r.time_s >= start]
+        if not neutral:
+            return Outcome(wrong=f"{name}: no neutral command reached the controller")
+        ms = 1000 * (neutral[0].time_s - (driving[-1].time_s if fault.from_last_command else start))
+        late = f"{name}: neutral after {ms:.0f} ms (limit {1000 * fault.neutral_within_s:.0f} ms)"
+        return Outcome(ms, late=late if ms > 1000 * fault.neutral_within_s else None)
+    if fault.neutral_after_s is not None:
+        back = start + fault.neutral_after_s
+        after = [r for r in records if r.time_s >= back]
+        if not after:
+            return Outcome(wrong=f"{name}: no command reached the controller after the link returned")
+        if after[0].pwm_us != NEUTRAL:
+            return Outcome(wrong=f"{name}: the first command after the link returned was {after[0].pwm_us}")
+        return Outcome(1000 * (after[0].time_s - back))
+    aborts = [text for t, text in transitions if t >= start and "-> ABORT" in text]
+    if aborts:
+        return Outcome(wrong=f"{name}: {aborts[0]}")
+    if not any(r.pwm_us != NEUTRAL for r in records if r.time_s >= time.monotonic() - 1.0):
+        return Outcome(wrong=f"{name}: thrust stopped")
+    return Outcome()
+
+
+def _recovered(system, state: dict) -> bool:
+    """Tracking the dock again (as guidance says after the fault), with every node process running."""
+    state["value"] = "unknown"  # a killed guidance's last word does not count
+    deadline = time.monotonic() + RECOVERY_S
+    while time.monotonic() < deadline:
         system.spin(0.2)
-        if state["value"] == "TRACK" and not group.exited():
-            return True, miss
-    return False, miss
+        if state["value"] == "TRACK" and not system.group.exited():
+            return True
+    return False
