@@ -1,11 +1,13 @@
 """Offline replay of recorded runs: the detector and guidance over a ROS 2 bag, no ROS needed.
 
 Reads the camera topic (sensor_msgs/Image or CompressedImage), camera info from the bag
-or a file, and the vehicle's attitude (sensor_msgs/Imu) when recorded; runs the detector
-and guidance deterministically, as fast as possible, in message-time order; writes their
-outputs under ``/replay/...`` into a new bag, with the input topics copied beside them
-unless asked not to. A damaged bag is processed up to the damage and the damage reported;
-frames that cannot be decoded are counted and skipped.
+(the one beside the image topic) or a file, and the vehicle's attitude (sensor_msgs/Imu)
+when recorded; runs the detector and guidance deterministically, as fast as possible, in
+message-time order; writes their outputs under ``/replay/...`` into a new MCAP bag, with
+the input topics copied beside them unless asked not to. ROS 2 bags (MCAP, sqlite3) and
+ROS 1 bags are read. A damaged bag is processed up to the damage and the damage
+reported; frames that cannot be decoded are counted and skipped; frames without a stamp
+are timed by the bag.
 """
 
 from __future__ import annotations
@@ -55,6 +57,7 @@ class ReplaySummary:
     seconds: float = 0.0
     damage: str | None = None
     skipped_topics: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)  # what was adapted (a scaled camera model...)
     output: str | None = None
 
     def as_dict(self) -> dict[str, Any]:
@@ -69,6 +72,7 @@ class ReplaySummary:
             if self.frames else None,
             "damage": self.damage,
             "skipped_topics": self.skipped_topics,
+            "notes": self.notes,
             "output": self.output,
         }
 
@@ -84,6 +88,47 @@ def _pick_image_topic(reader: AnyReader, wanted: str | None) -> Any:
     # Prefer the raw image when both are recorded: no JPEG loss.
     images.sort(key=lambda c: (c.msgtype != "sensor_msgs/msg/Image", c.topic))
     return images[0]
+
+
+def _camera_info_topics(reader: AnyReader, image_topic: str) -> list:
+    """The camera_info connections beside the image topic (the longest shared namespace)."""
+    infos = [c for c in reader.connections if c.msgtype == "sensor_msgs/msg/CameraInfo"]
+    image = image_topic.strip("/").split("/")
+
+    def shared(topic: str) -> int:
+        namespace = topic.strip("/").split("/")[:-1]
+        return next((i for i, (a, b) in enumerate(zip(namespace, image)) if a != b), min(len(namespace), len(image)))
+
+    best = max((shared(c.topic) for c in infos), default=0)
+    return [c for c in infos if shared(c.topic) == best]
+
+
+def _input_copies(reader: AnyReader, writer: Writer, typestore: Any, summary: ReplaySummary) -> dict[int, Any]:
+    """Output connections for the input topics, by input connection id (one per topic and type).
+
+    ROS 1 messages are copied as their ROS 2 types (the same layout but for the header's
+    seq, which the conversion drops); a topic whose type cannot be written is left out and
+    named in the summary.
+    """
+    store = reader.typestore if reader.is2 else typestore
+    by_topic: dict[tuple[str, str], Any] = {}
+    copies: dict[int, Any] = {}
+    for c in reader.connections:
+        key = (c.topic, c.msgtype)
+        if key not in by_topic:
+            try:
+                by_topic[key] = writer.add_connection(c.topic, c.msgtype, typestore=store)
+            except Exception:  # a type rosbags cannot describe or ROS 2 does not have
+                summary.skipped_topics.append(c.topic)
+                continue
+        copies[c.id] = by_topic[key]
+    return copies
+
+
+def _camera_from_info(msg: Any) -> CameraModel:
+    """A camera model from a CameraInfo of ROS 2 (fields k, d) or ROS 1 (K, D)."""
+    k, d = (msg.k, msg.d) if hasattr(msg, "k") else (msg.K, msg.D)
+    return CameraModel.from_camera_info(msg.width, msg.height, k, d, msg.distortion_model or "plumb_bob")
 
 
 def replay(
@@ -106,35 +151,33 @@ def replay(
         reader = AnyReader([bag])
         reader.open()
     except Exception as exc:  # rosbags raises many kinds for unreadable files
-        raise BagError(f"{bag}: cannot open as a ROS 2 bag ({exc})") from exc
+        raise BagError(f"{bag}: cannot open as a ROS bag (ROS 2 folder, .mcap or .db3; ROS 1 .bag): {exc}") from exc
     writer = None
     try:
-        image_conn = _pick_image_topic(reader, image_topic)
-        info_conns = [c for c in reader.connections if c.msgtype == "sensor_msgs/msg/CameraInfo"]
+        picked = _pick_image_topic(reader, image_topic)
+        image_ids = {c.id for c in reader.connections if (c.topic, c.msgtype) == (picked.topic, picked.msgtype)}
+        info_conns = _camera_info_topics(reader, picked.topic)
         imu_conns = [c for c in reader.connections if c.msgtype == "sensor_msgs/msg/Imu"]
         if camera is None and not info_conns:
             raise BagError("the bag has no sensor_msgs/CameraInfo; give the camera with --camera-info")
-        wanted = [image_conn, *info_conns, *imu_conns]
+        info_ids, imu_ids = {c.id for c in info_conns}, {c.id for c in imu_conns}
+        needed = image_ids | info_ids | imu_ids
         typestore = get_typestore(Stores.ROS2_JAZZY)
+        copies: dict[int, Any] = {}
         if output is not None:
             writer = Writer(output, version=9, storage_plugin=StoragePlugin.MCAP)
             writer.open()
             outputs = {t: writer.add_connection(t, m, typestore=typestore) for t, m in OUTPUT_TOPICS.items()}
-            copies = {}
             if copy_inputs:
-                for c in reader.connections:
-                    try:
-                        copies[c.id] = writer.add_connection(c.topic, c.msgtype, typestore=reader.typestore)
-                    except Exception:  # a type rosbags cannot describe: leave it out, say so
-                        summary.skipped_topics.append(c.topic)
-                wanted = list(reader.connections)
+                copies = _input_copies(reader, writer, typestore, summary)
         if camera is None:
             camera = _first_camera(reader, info_conns)
+        calibrated = camera  # the detector's model may be scaled to the frames
         detector = Detector(camera, detector_config)
         guidance = Guidance(guidance_config)
         attitude: Attitude | None = None
-        messages = reader.messages(connections=[c for c in wanted if c.topic not in summary.skipped_topics])
-        total = image_conn.msgcount
+        messages = reader.messages(connections=[c for c in reader.connections if c.id in needed or c.id in copies])
+        total = sum(c.msgcount for c in reader.connections if c.id in image_ids)
         start = time.perf_counter()
         while True:
             try:
@@ -145,40 +188,44 @@ def replay(
                 summary.damage = f"bag damaged after {summary.frames} frames: {exc.__class__.__name__}: {exc}"
                 break
             if writer is not None and connection.id in copies:
-                writer.write(copies[connection.id], timestamp, raw)
+                writer.write(copies[connection.id], timestamp,
+                             raw if reader.is2 else typestore.ros1_to_cdr(raw, connection.msgtype))
             try:
                 msg = reader.deserialize(raw, connection.msgtype)
             except Exception as exc:
                 summary.damage = f"undecodable {connection.topic} message after {summary.frames} frames: {exc}"
                 continue
-            if connection.msgtype == "sensor_msgs/msg/CameraInfo":
+            if connection.id in info_ids:
                 if camera_file is None:
                     try:
-                        model = CameraModel.from_camera_info(msg.width, msg.height, msg.k, msg.d,
-                                                             msg.distortion_model or "plumb_bob")
+                        model = _camera_from_info(msg)
                     except CameraModelError as exc:
                         summary.damage = f"camera_info rejected: {exc}"
                         continue
-                    if model != detector.camera:
-                        detector.camera = model
+                    if model != calibrated:
+                        calibrated = detector.camera = model
                 continue
-            if connection.msgtype == "sensor_msgs/msg/Imu":
+            if connection.id in imu_ids:
                 q = msg.orientation
                 roll, pitch, yaw = navigation_attitude(q.x, q.y, q.z, q.w)
                 attitude = Attitude(_stamp(msg.header.stamp), roll, pitch, yaw)
                 continue
-            if connection is not image_conn:
+            if connection.id not in image_ids:
                 continue
-            stamp = _stamp(msg.header.stamp)
+            stamp = _stamp(msg.header.stamp) or timestamp * 1e-9  # an unstamped camera: the bag's time
             summary.frames += 1
             if progress is not None:
                 progress(summary.frames, total)
             try:
                 frame = (decode_compressed(msg.data, connection.topic)
                          if connection.msgtype.endswith("CompressedImage")
-                         else image_from_fields(msg.height, msg.width, msg.encoding, msg.step, msg.data))
+                         else image_from_fields(msg.height, msg.width, msg.encoding, msg.step, msg.data,
+                                                bool(msg.is_bigendian)))
                 if detector.camera is None:
                     raise DockGuidanceError("no camera_info before the first frame")
+                note = detector.fit_camera(frame.shape[1], frame.shape[0])
+                if note is not None and note not in summary.notes:
+                    summary.notes.append(note)
                 detection = detector.detect(frame)
             except DockGuidanceError as exc:
                 summary.bad_frames += 1
@@ -220,8 +267,7 @@ def _first_camera(reader: AnyReader, info_conns: list) -> CameraModel:
         for connection, _, raw in reader.messages(connections=info_conns):
             msg = reader.deserialize(raw, connection.msgtype)
             try:
-                return CameraModel.from_camera_info(msg.width, msg.height, msg.k, msg.d,
-                                                    msg.distortion_model or "plumb_bob")
+                return _camera_from_info(msg)
             except CameraModelError as exc:
                 problem = str(exc)
     except Exception as exc:

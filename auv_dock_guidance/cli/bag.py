@@ -26,9 +26,10 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     r.set_defaults(run=run_record)
 
     p = subparsers.add_parser("replay", help="run detector and guidance over a recorded bag",
-                              description="Read the camera topic (Image or CompressedImage) and camera info, run "
-                              "the detector and guidance deterministically as fast as possible, and write their "
-                              "outputs under /replay/ into a new bag beside the input topics.")
+                              description="Read the camera topic (Image or CompressedImage) and camera info of a "
+                              "ROS 2 (MCAP, sqlite3) or ROS 1 bag, run the detector and guidance deterministically "
+                              "as fast as possible, and write their outputs under /replay/ into a new MCAP bag "
+                              "beside the input topics.")
     p.add_argument("bag", metavar="BAG")
     p.add_argument("--output", "-o", metavar="OUT", help="output bag folder (default BAG_replay)")
     p.add_argument("--camera-info", metavar="YAML", help="camera model when the bag has none (or to override it)")
@@ -73,6 +74,8 @@ def run_replay(args: argparse.Namespace) -> int:
             print(f"  {line}")
         if report["command_range_us"]:
             print("  thruster pulses (min-max us): " + ", ".join(f"{lo}-{hi}" for lo, hi in report["command_range_us"]))
+        for note in report["notes"]:
+            print(f"  note: {note}")
         if report["damage"]:
             print(f"  warning: {report['damage']}")
         print(f"wrote {report['output']}")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 from auv_dock_guidance.cli.common import add_camera_argument, load_camera, positive_float, print_json, rounded
@@ -16,7 +17,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "detect",
         help="find the LED ring in images and print its position and bearing",
         description="Find the dock's LED ring in each image. Images given in order are one "
-        "sequence (the adaptive threshold carries over) unless --independent.",
+        "sequence (the adaptive threshold carries over) unless --independent. Images that are a "
+        "uniform resize of the camera's resolution use the camera model scaled to them.",
     )
     p.add_argument("images", nargs="+", metavar="IMAGE", help="image files (PNG, JPEG, ...)")
     add_camera_argument(p)
@@ -52,11 +54,17 @@ def run(args: argparse.Namespace) -> int:
     camera = load_camera(args.camera_info)
     detector = Detector(camera, DetectorConfig(marker_radius_m=args.marker_radius))
     failures = 0
+    said: set[str] = set()
     for path in args.images:
         if args.independent:
             detector.reset()
         try:
-            detection = detector.detect(read_image(path))
+            image = read_image(path)
+            note = detector.fit_camera(image.shape[1], image.shape[0])
+            if note is not None and note not in said:
+                said.add(note)
+                print(f"note: {note}", file=sys.stderr, flush=True)
+            detection = detector.detect(image)
         except DockGuidanceError as exc:
             failures += 1
             if args.json:

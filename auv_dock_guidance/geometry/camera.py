@@ -160,6 +160,23 @@ class CameraModel:
             cy=(self.cy + 0.5) * factor - 0.5,
         )
 
+    def for_image(self, width: int, height: int) -> CameraModel:
+        """This camera for images of the given size: itself, or scaled when the images were
+        resized or binned uniformly from the calibrated size (within a pixel of rounding).
+
+        Raises CameraModelError for any other size: a crop or another camera needs its own
+        calibration, and a guess would bias every range and bearing.
+        """
+        if (width, height) == (self.width, self.height):
+            return self
+        factor = width / self.width
+        if width <= 0 or height <= 0 or abs(self.height * factor - height) > 1.0:
+            raise CameraModelError(
+                f"images are {width}x{height} but the camera model is {self.width}x{self.height}, "
+                "and they are not a uniform resize of each other: give the camera_info of these images"
+            )
+        return replace(self.scaled(factor), width=width, height=height)
+
     # ----------------------------------------------------------------- properties
     @property
     def matrix(self) -> np.ndarray:

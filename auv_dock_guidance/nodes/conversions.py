@@ -25,8 +25,9 @@ def seconds_stamp(seconds: float) -> TimeMsg:
 
 
 def image_to_array(msg: Image) -> np.ndarray:
-    """A zero-copy numpy view of an 8-bit image message; ImageInputError when it does not add up."""
-    return image_from_fields(msg.height, msg.width, msg.encoding, msg.step, msg.data)
+    """The image message as an 8-bit BGR or mono array (a zero-copy view for bgr8 and mono8);
+    ImageInputError when it does not add up."""
+    return image_from_fields(msg.height, msg.width, msg.encoding, msg.step, msg.data, bool(msg.is_bigendian))
 
 
 def array_to_image(frame: np.ndarray, stamp: TimeMsg, frame_id: str) -> Image:

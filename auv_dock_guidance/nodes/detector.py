@@ -78,6 +78,7 @@ class DetectorNode(Node):
         self.values = declare(self, PARAMS)
         self.config = detector_config(self.values)
         camera = CameraModel.from_yaml(self.values["camera_info_file"]) if self.values["camera_info_file"] else None
+        self._calibrated = camera  # as calibrated; the detector's may be scaled to the frames
         self.detector = Detector(camera, self.config)
         on_parameter_change(self, self._apply_parameters)
         reliability = ReliabilityPolicy.RELIABLE if self.values["reliable"] else ReliabilityPolicy.BEST_EFFORT
@@ -116,9 +117,9 @@ class DetectorNode(Node):
         except DockGuidanceError as exc:
             self.problems.report("camera_info", str(exc))
             return
-        if camera != self.detector.camera:
+        if camera != self._calibrated:
             self.get_logger().info(f"camera model {camera.width}x{camera.height} fx {camera.fx:.1f} from camera_info")
-            self.detector.camera = camera
+            self._calibrated = self.detector.camera = camera
 
     def _on_image(self, msg: Image) -> None:
         if self.detector.camera is None:
@@ -134,6 +135,9 @@ class DetectorNode(Node):
         start = time.perf_counter()
         try:
             frame = image_to_array(msg)
+            note = self.detector.fit_camera(frame.shape[1], frame.shape[0])
+            if note is not None:
+                self.get_logger().info(note)
             detection = self.detector.detect(frame)
         except DockGuidanceError as exc:
             self.problems.report("frame", str(exc))

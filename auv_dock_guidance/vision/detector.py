@@ -146,6 +146,19 @@ class Detector:
         self._last = detection if detection.found else None
         return detection
 
+    def fit_camera(self, width: int, height: int) -> str | None:
+        """Follow images that are a uniform resize of the camera model (binned, scaled down
+        for recording); returns what changed, for the caller to say once, or None.
+
+        Raises CameraModelError when the size cannot come from this camera.
+        """
+        camera = self.camera
+        if camera is None or (width, height) == (camera.width, camera.height):
+            return None
+        self.camera = camera.for_image(width, height)
+        return (f"images are {width}x{height}, the camera model {camera.width}x{camera.height}: "
+                f"model scaled by {width / camera.width:.4g}")
+
     def _checked(self, image: np.ndarray) -> np.ndarray:
         image = as_bgr_or_gray8(image)
         if self.camera is not None and image.shape[:2] != (self.camera.height, self.camera.width):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -50,31 +51,88 @@ def read_image(path: str | Path) -> np.ndarray:
     return as_bgr_or_gray8(image, str(path))
 
 
-_CHANNELS = {"bgr8": 3, "rgb8": 3, "mono8": 1, "bgra8": 4, "rgba8": 4, "8UC1": 1, "8UC3": 3}
+# OpenCV names Bayer patterns by the second row's first two pixels, ROS by the first row's
+# (cv_bridge's table); each code is checked against a known colour image in the tests.
+_BAYER = {"rggb": cv2.COLOR_BayerBG2BGR, "bggr": cv2.COLOR_BayerRG2BGR,
+          "gbrg": cv2.COLOR_BayerGR2BGR, "grbg": cv2.COLOR_BayerGB2BGR}
 
 
-def image_from_fields(height: int, width: int, encoding: str, step: int, data: Any) -> np.ndarray:
-    """A zero-copy numpy view of the fields of a sensor_msgs/Image (BGR or mono; RGB reordered).
+@dataclass(frozen=True)
+class _Layout:
+    channels: int  # values per pixel in the buffer
+    depth: int  # bytes per value
+    to_bgr: int | None = None  # cv2.cvtColor code to BGR, when the pixels are not BGR/mono already
+    reorder: bool = False  # RGB(A) order: reverse to BGR
 
-    Works with rclpy messages and with rosbags' deserialized ones alike. Raises
-    ImageInputError on an encoding, size or step that does not add up.
+
+def _encodings() -> dict[str, _Layout]:
+    table = {"mono8": _Layout(1, 1), "8UC1": _Layout(1, 1), "bgr8": _Layout(3, 1), "8UC3": _Layout(3, 1),
+             "bgra8": _Layout(4, 1), "8UC4": _Layout(4, 1), "rgb8": _Layout(3, 1, reorder=True),
+             "rgba8": _Layout(4, 1, reorder=True), "mono16": _Layout(1, 2), "16UC1": _Layout(1, 2),
+             "bgr16": _Layout(3, 2), "16UC3": _Layout(3, 2), "bgra16": _Layout(4, 2), "16UC4": _Layout(4, 2),
+             "rgb16": _Layout(3, 2, reorder=True), "rgba16": _Layout(4, 2, reorder=True),
+             "yuv422": _Layout(2, 1, cv2.COLOR_YUV2BGR_UYVY), "uyvy": _Layout(2, 1, cv2.COLOR_YUV2BGR_UYVY),
+             "yuv422_yuy2": _Layout(2, 1, cv2.COLOR_YUV2BGR_YUY2), "yuyv": _Layout(2, 1, cv2.COLOR_YUV2BGR_YUY2)}
+    for pattern, code in _BAYER.items():
+        table[f"bayer_{pattern}8"] = _Layout(1, 1, code)
+        table[f"bayer_{pattern}16"] = _Layout(1, 2, code)
+    return table
+
+
+ENCODINGS = _encodings()
+
+
+def image_from_fields(height: int, width: int, encoding: str, step: int, data: Any, is_bigendian: bool = False) -> np.ndarray:
+    """The 8-bit BGR or mono image in the fields of a sensor_msgs/Image.
+
+    bgr8 and mono8 come back as zero-copy views; RGB is reordered, Bayer demosaiced, YUV
+    converted, 16-bit scaled to 8 (as cv_bridge does) and alpha dropped. Works with
+    rclpy messages and with rosbags' deserialized ones alike. Raises ImageInputError on an
+    encoding, size or step that does not add up.
     """
-    channels = _CHANNELS.get(encoding)
-    if channels is None:
-        raise ImageInputError(f"image encoding {encoding!r} is not supported (use bgr8, rgb8 or mono8)")
+    if encoding == "nv21":
+        return _nv21(height, width, step, data)
+    layout = ENCODINGS.get(encoding)
+    if layout is None:
+        raise ImageInputError(f"image encoding {encoding!r} is not supported "
+                              f"(supported: {', '.join(sorted([*ENCODINGS, 'nv21']))})")
     if height == 0 or width == 0:
         raise ImageInputError(f"image is empty ({width}x{height})")
-    row = width * channels
+    row = width * layout.channels * layout.depth
     if step < row:
-        raise ImageInputError(f"image step {step} is smaller than width x channels = {row}")
-    buffer = data.view(np.uint8).ravel() if isinstance(data, np.ndarray) else np.frombuffer(data, dtype=np.uint8)
+        raise ImageInputError(f"{encoding} image step {step} is smaller than width x bytes per pixel = {row}")
+    buffer = _bytes(data)
     if buffer.size < step * height:
         raise ImageInputError(f"image data has {buffer.size} bytes, expected step x height = {step * height}")
-    frame = buffer[: step * height].reshape(height, step)[:, :row]
-    frame = frame.reshape(height, width, channels) if channels > 1 else frame
-    if encoding in ("rgb8", "rgba8"):
-        frame = frame[:, :, 2::-1]
-    return frame
+    rows = buffer[: step * height].reshape(height, step)[:, :row]
+    if layout.depth == 2:
+        words = np.ascontiguousarray(rows).view(">u2" if is_bigendian else "<u2")
+        rows = (words >> 8).astype(np.uint8)  # to 8 bits first: demosaicing then runs on 8-bit data
+    shape = (height, width, layout.channels) if layout.channels > 1 else (height, width)
+    frame = rows.reshape(shape)
+    if layout.to_bgr is not None:
+        return cv2.cvtColor(np.ascontiguousarray(frame), layout.to_bgr)
+    if layout.reorder:
+        return frame[:, :, 2::-1]
+    return frame[:, :, :3] if layout.channels == 4 else frame
+
+
+def _nv21(height: int, width: int, step: int, data: Any) -> np.ndarray:
+    """Full-resolution luma, then interleaved V/U at half resolution (Android's camera format)."""
+    if height % 2 or width % 2 or height == 0 or width == 0:
+        raise ImageInputError(f"nv21 image needs an even, non-zero size, got {width}x{height}")
+    if step < width:
+        raise ImageInputError(f"nv21 image step {step} is smaller than the width {width}")
+    rows = height * 3 // 2
+    buffer = _bytes(data)
+    if buffer.size < step * rows:
+        raise ImageInputError(f"image data has {buffer.size} bytes, expected step x height x 1.5 = {step * rows}")
+    planes = np.ascontiguousarray(buffer[: step * rows].reshape(rows, step)[:, :width])
+    return cv2.cvtColor(planes, cv2.COLOR_YUV2BGR_NV21)
+
+
+def _bytes(data: Any) -> np.ndarray:
+    return data.view(np.uint8).ravel() if isinstance(data, np.ndarray) else np.frombuffer(data, dtype=np.uint8)
 
 
 def decode_compressed(data: Any, source: str = "compressed image") -> np.ndarray:

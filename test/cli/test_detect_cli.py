@@ -55,6 +55,19 @@ def test_wrong_image_size_for_the_camera_is_an_error_not_a_crash(tmp_path, capsy
     assert "640x480" in capsys.readouterr().out
 
 
+def test_images_at_half_the_calibrated_resolution_use_the_scaled_camera(tmp_path, camera, capsys):
+    half = camera.scaled(0.5)
+    image, truth = render(half, SceneSpec(marker_center_m=(0.3, 0.1, 6.0), brightness=3.0, seed=2))
+    path = tmp_path / "half.png"
+    cv2.imwrite(str(path), image)
+    assert main(["detect", "--json", str(path)]) == 0
+    captured = capsys.readouterr()
+    record = json.loads(captured.out)
+    assert record["range_m"] == pytest.approx(6.0, rel=0.03)
+    assert abs(record["u"] - truth.center_px[0]) < 1.5 and abs(record["v"] - truth.center_px[1]) < 1.5
+    assert "images are 960x540, the camera model 1920x1080: model scaled by 0.5" in captured.err
+
+
 def test_negative_marker_radius_is_refused(images, capsys):
     _, paths = images
     with pytest.raises(SystemExit) as info:

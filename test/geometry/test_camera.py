@@ -69,6 +69,16 @@ def test_scaled_camera_keeps_normalized_geometry(camera):
     np.testing.assert_allclose(half.normalized_to_pixels(xy), (camera.normalized_to_pixels(xy) + 0.5) * 0.5 - 0.5)
 
 
+def test_images_resized_from_the_calibrated_size_get_the_scaled_model(camera):
+    assert camera.for_image(1920, 1080) is camera
+    half = camera.for_image(960, 540)
+    assert (half.width, half.height) == (960, 540) and half.fx == pytest.approx(camera.fx / 2)
+    third = camera.for_image(640, 360)  # 1080 / 3 rounds exactly; the model keeps the images' size
+    assert (third.width, third.height) == (640, 360) and third.cy == pytest.approx((camera.cy + 0.5) / 3 - 0.5)
+    with pytest.raises(CameraModelError, match="640x480 .* not a uniform resize"):
+        camera.for_image(640, 480)  # a crop or another camera: never guessed
+
+
 @pytest.mark.parametrize(
     "text, message",
     [

@@ -16,6 +16,7 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PointStamped
 from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CameraInfo, Image, Imu
 from std_msgs.msg import Bool, Float64, UInt16MultiArray
@@ -30,6 +31,15 @@ from auv_dock_guidance.sim.main_controller import MainControllerSim
 from auv_dock_guidance.sim.scene import SceneSpec, render
 
 
+def beside(node: Node, name: str = "harness") -> tuple[Node, SingleThreadedExecutor]:
+    """A harness node next to ``node``, both on one executor."""
+    harness = rclpy.create_node(name)
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    executor.add_node(harness)
+    return harness, executor
+
+
 def spin_until(executor: SingleThreadedExecutor, done: Callable[[], bool], timeout_s: float = 10.0) -> None:
     end = time.monotonic() + timeout_s
     while not done():
@@ -39,10 +49,7 @@ def spin_until(executor: SingleThreadedExecutor, done: Callable[[], bool], timeo
 
 def test_detector_refuses_bad_frames_and_camera_info_and_keeps_detecting(ros, capfd):
     detector = DetectorNode()
-    harness = rclpy.create_node("harness")
-    executor = SingleThreadedExecutor()
-    executor.add_node(detector)
-    executor.add_node(harness)
+    harness, executor = beside(detector)
     images = harness.create_publisher(Image, "camera/image_raw", QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE))
     infos = harness.create_publisher(CameraInfo, "camera/camera_info", 1)
     detected: list[Bool] = []
@@ -70,8 +77,8 @@ def test_detector_refuses_bad_frames_and_camera_info_and_keeps_detecting(ros, ca
         wrong_encoding.encoding = "32FC1"
         bad_step.step = camera.width  # a colour image claiming one byte per pixel
         truncated.data = truncated.data[: len(truncated.data) // 2]
-        wrong_size = array_to_image(np.zeros((camera.height // 2, camera.width // 2, 3), np.uint8),
-                                    seconds_stamp(10.3), camera.frame_id)
+        wrong_size = array_to_image(np.zeros((200, 200, 3), np.uint8), seconds_stamp(10.3),
+                                    camera.frame_id)  # not a resize of the calibrated 480x270
         for number, msg in enumerate((wrong_encoding, bad_step, truncated, wrong_size), start=1):
             send(msg, lambda n=number: problems["frame"] == n)
         send(good(11.0), lambda: len(detected) == 1)
@@ -95,10 +102,7 @@ def test_detector_refuses_bad_frames_and_camera_info_and_keeps_detecting(ros, ca
 
 def test_guidance_refuses_bad_navigation_and_targets_and_keeps_commanding(ros, capfd):
     guidance = GuidanceNode()
-    harness = rclpy.create_node("harness")
-    executor = SingleThreadedExecutor()
-    executor.add_node(guidance)
-    executor.add_node(harness)
+    harness, executor = beside(guidance)
     imu_pub = harness.create_publisher(Imu, "vehicle/imu", 10)
     depth_pub = harness.create_publisher(Float64, "vehicle/depth", 10)
     target_pub = harness.create_publisher(PointStamped, "dock/target", 10)
@@ -159,10 +163,7 @@ def controller():
 def test_bridge_refuses_line_garbage_and_bad_telemetry_and_keeps_the_link(controller, domain_id, capfd):
     rclpy.init(domain_id=domain_id, args=["--ros-args", "-p", f"serial_bridge:port:={controller.port}"])
     bridge = SerialBridgeNode()
-    harness = rclpy.create_node("guidance")  # the trusted publisher's name: its commands are only checked
-    executor = SingleThreadedExecutor()
-    executor.add_node(bridge)
-    executor.add_node(harness)
+    harness, executor = beside(bridge, "guidance")  # the trusted publisher's name: its commands are only checked
     imu: list[Imu] = []
     harness.create_subscription(Imu, "vehicle/imu", imu.append, 50)
     commands = harness.create_publisher(UInt16MultiArray, "thrusters/command", 10)

@@ -12,7 +12,9 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
 from auv_dock_guidance.cli.main import main
+from auv_dock_guidance.geometry.camera import CameraModel
 from auv_dock_guidance.replay import BagError, compare, replay
+from auv_dock_guidance.sim.scene import SceneSpec, render
 from auv_dock_guidance.vision.detector import DetectorConfig
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures"
@@ -94,7 +96,7 @@ def test_bag_without_camera_info_needs_a_camera_file(tmp_path):
 
 
 def test_wrong_image_encoding_is_counted_not_fatal(tmp_path):
-    _bag_with_images(tmp_path / "bag", "16UC1")
+    _bag_with_images(tmp_path / "bag", "32FC1")  # a float image: no camera of ours
     camera = tmp_path / "cam.yaml"
     camera.write_text((Path(__file__).resolve().parents[2] / "config" / "camera_info.yaml").read_text())
     summary = replay(tmp_path / "bag", None, camera_file=camera)
@@ -111,3 +113,53 @@ def test_bag_without_a_camera_topic_names_what_it_has(tmp_path):
     writer.close()
     with pytest.raises(BagError, match="/chatter"):
         replay(tmp_path / "bag", None)
+
+
+
+def _ros1_recording(path: Path, calibrated: CameraModel, frame_camera: CameraModel, frames: int) -> None:
+    """A ROS 1 bag as a real-water recording may come: frames recorded at half the calibrated
+    resolution with unset stamps, the camera's info, and another camera's info beside it."""
+    from rosbags.rosbag1 import Writer as Ros1Writer
+
+    ts = get_typestore(Stores.ROS1_NOETIC)
+    t = ts.types
+    unset = t["std_msgs/msg/Header"](seq=0, stamp=t["builtin_interfaces/msg/Time"](sec=0, nanosec=0), frame_id="cam")
+
+    def info(camera: CameraModel) -> bytes:
+        roi = t["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
+        msg = t["sensor_msgs/msg/CameraInfo"](
+            header=unset, height=camera.height, width=camera.width, distortion_model="plumb_bob",
+            D=np.array(camera.distortion), K=camera.matrix.ravel(), R=np.eye(3).ravel(), P=np.zeros(12),
+            binning_x=0, binning_y=0, roi=roi)
+        return ts.serialize_ros1(msg, "sensor_msgs/msg/CameraInfo")
+
+    other_camera = CameraModel(640, 480, 500.0, 500.0, 320.0, 240.0)
+    with Ros1Writer(path) as writer:
+        image = writer.add_connection("/cam/image_raw", "sensor_msgs/msg/Image", typestore=ts)
+        ours = writer.add_connection("/cam/camera_info", "sensor_msgs/msg/CameraInfo", typestore=ts)
+        other = writer.add_connection("/other/camera_info", "sensor_msgs/msg/CameraInfo", typestore=ts)
+        for i in range(frames):
+            when = 1000 * 10**9 + i * 10**8  # 10 frames a second
+            writer.write(other, when, info(other_camera))
+            writer.write(ours, when, info(calibrated))
+            frame, _ = render(frame_camera, SceneSpec(marker_center_m=(0.3, 0.1, 7.0 - 0.1 * i), brightness=3.0, seed=i))
+            msg = t["sensor_msgs/msg/Image"](header=unset, height=frame_camera.height, width=frame_camera.width,
+                                             encoding="bgr8", is_bigendian=0, step=3 * frame_camera.width,
+                                             data=frame.reshape(-1))
+            writer.write(image, when, ts.serialize_ros1(msg, "sensor_msgs/msg/Image"))
+
+
+def test_a_ros1_recording_with_unset_stamps_and_two_cameras_replays(tmp_path, camera):
+    from rosbags.highlevel import AnyReader
+
+    calibrated = camera.scaled(0.25)
+    _ros1_recording(tmp_path / "run.bag", calibrated, calibrated.scaled(0.5), frames=8)
+    summary = replay(tmp_path / "run.bag", tmp_path / "out")
+    assert summary.frames == 8 and summary.bad_frames == 0 and summary.damage is None
+    assert summary.detections >= 6  # with the info beside the image topic, scaled to the frames
+    assert summary.notes == ["images are 240x135, the camera model 480x270: model scaled by 0.5"]
+    assert any("SEARCH -> TRACK" in t for t in summary.transitions)  # timed by the bag: stamps move on
+    with AnyReader([tmp_path / "out"]) as reader:  # the inputs were copied as CDR, readable again
+        infos = [c for c in reader.connections if c.topic == "/cam/camera_info"]
+        first = next(reader.messages(connections=infos))
+        assert reader.deserialize(first[2], first[0].msgtype).width == 480
