@@ -79,11 +79,10 @@ class AdaptiveThreshold:
 
     def level(self, background: float, peak: float, noise_sigma: float, fraction: float) -> float:
         """The grey level for a share, never below the floor."""
-        c = self.config
-        floor = background + max(c.floor_grey, c.floor_noise_sigmas * noise_sigma)
-        return max(floor, background + fraction * (peak - background))
+        return max(self.floor(background, noise_sigma), background + fraction * (peak - background))
 
     def floor(self, background: float, noise_sigma: float) -> float:
+        """The lowest threshold: this far above the background, against over-detection."""
         c = self.config
         return background + max(c.floor_grey, c.floor_noise_sigmas * noise_sigma)
 
