@@ -201,7 +201,7 @@ def edge_comparison(camera: CameraModel, frames: int, seed: int, scale: float = 
     rng = np.random.default_rng(seed)
     totals = {"traditional": [0.0, 0.0], "improved": [0.0, 0.0]}
     for _ in range(frames):
-        spec = random_scene(small_camera, rng, range_m=rng.uniform(3.0, 10.0), kind="plain")
+        spec = random_scene(small_camera, rng, ScenarioMix(real_world=False), range_m=rng.uniform(3.0, 10.0), kind="plain")
         spec = replace(spec, read_noise=rng.uniform(6.0, 12.0), shot_noise=rng.uniform(1.0, 2.0), led_count=0)
         noisy, _ = render(small_camera, spec)
         clean, _ = render(small_camera, replace(spec, read_noise=0.0, shot_noise=0.0))

@@ -4,8 +4,10 @@ Every draw varies what real water and real docks vary: range and bearing, ring t
 strip width, continuous strip or discrete LEDs, LED colour and brightness, turbidity
 (attenuation, halo, backscatter), ambient light from the surface, water colour, motion
 blur, sensor noise, a surface reflection (sometimes cut by the frame edge), lamps and
-glints. The ranges are wide on purpose: a detector tuned to one look of one renderer
-will not survive real water.
+glints; and what real docks and pools add: LEDs of uneven brightness and dead ones, light
+on the funnel inside the ring, structure behind the dock, caustics, particles,
+vignetting and JPEG recording. The ranges are wide on purpose: a detector tuned to one
+look of one renderer will not survive real water.
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ class ScenarioMix:
     min_range_m: float = 2.0
     max_range_m: float = 15.0
     marker_radius_m: float = 0.35
+    real_world: bool = True  # uneven and dead LEDs, funnel glow, structure, caustics, particles, vignetting, JPEG
 
 
 def random_scene(camera: CameraModel, rng: np.random.Generator, mix: ScenarioMix = ScenarioMix(),
@@ -72,6 +75,8 @@ def random_scene(camera: CameraModel, rng: np.random.Generator, mix: ScenarioMix
         shot_noise=rng.uniform(0.3, 1.0),
         seed=int(rng.integers(2**31)),
     )
+    if mix.real_world:
+        spec = _real_world(rng, spec)
     if kind == "empty":
         lamps = _glints(camera, rng, int(rng.integers(0, 6)))
         return replace(spec, marker_center_m=None, lamps=lamps)
@@ -87,6 +92,25 @@ def random_scene(camera: CameraModel, rng: np.random.Generator, mix: ScenarioMix
         lamps = _lamps(camera, rng, int(rng.integers(1, 4))) + _glints(camera, rng, int(rng.integers(0, 4)))
         spec = replace(spec, lamps=lamps)
     return spec
+
+
+def _real_world(rng: np.random.Generator, spec: SceneSpec) -> SceneSpec:
+    """Each effect present in part of the population, at a strength drawn for the frame."""
+
+    def sometimes(share: float, low: float, high: float) -> float:
+        return float(rng.uniform(low, high)) if rng.uniform() < share else 0.0
+
+    return replace(
+        spec,
+        led_spread=sometimes(0.7, 0.05, 0.35),
+        dead_share=sometimes(0.3, 0.02, 0.12),
+        funnel_glow=sometimes(0.4, 0.02, 0.15),
+        clutter=sometimes(0.5, 0.02, 0.1),
+        caustics=sometimes(0.3, 0.02, 0.1),
+        particles=int(sometimes(0.4, 10, 250)),
+        vignetting=sometimes(0.6, 0.1, 0.5),
+        jpeg_quality=int(sometimes(0.5, 55, 95)),
+    )
 
 
 def _marker_position(camera: CameraModel, rng: np.random.Generator, z: float, radius_m: float) -> np.ndarray:

@@ -4,8 +4,11 @@ The ring is drawn where the calibrated camera (lens distortion included) sees it
 the water acts on the light: attenuation with path length, a forward-scatter halo that
 grows with turbidity and distance, backscatter veiling light, an ambient gradient from
 the surface, a mirrored copy of the ring in the surface (rippled, similar brightness),
-lamps and glints, motion blur and sensor noise. Everything is drawn from a seeded
-generator, so a (spec, seed) pair is one exact image.
+lamps and glints, motion blur and sensor noise. What real docks and pools add is there
+too, off by default: LEDs of uneven brightness and dead ones, light thrown on the dock's
+funnel inside the ring, out-of-focus structure (floor, walls, the dock's frame), sunlight
+caustics, particles, lens vignetting and JPEG recording. Everything is drawn from a
+seeded generator, so a (spec, seed) pair is one exact image.
 
 Geometry is given in the camera optical frame (x right, y down, z forward, metres).
 """
@@ -62,6 +65,14 @@ class SceneSpec:
     motion_blur_angle_rad: float = 0.0
     read_noise: float = 2.0  # grey levels, standard deviation
     shot_noise: float = 0.6  # grey levels per sqrt(grey level)
+    led_spread: float = 0.0  # LED-to-LED brightness spread (log-normal sigma); strips vary along their length
+    dead_share: float = 0.0  # share of the LEDs (or of the strip's length) that is dark
+    funnel_glow: float = 0.0  # light on the funnel inside the ring, as a share of the LEDs' radiance
+    clutter: float = 0.0  # contrast of out-of-focus structure behind the dock (image units)
+    caustics: float = 0.0  # brightness of sunlight caustics on the floor and walls (image units)
+    particles: int = 0  # marine snow and bubbles lit by the LEDs and the surface
+    vignetting: float = 0.0  # share of the light lost in the image corners
+    jpeg_quality: int = 0  # 0: raw frames; otherwise recorded as JPEG at this quality
     seed: int = 0
 
 
@@ -123,19 +134,53 @@ def render(camera: CameraModel, spec: SceneSpec) -> tuple[np.ndarray, GroundTrut
     if spec.marker_center_m is not None:
         center = np.array(spec.marker_center_m, dtype=float)
         normal = np.array(spec.marker_normal, dtype=float)
-        _draw_ring(camera, spec, light, center, normal, gain=1.0, rng=rng, ripple=0.0)
+        leds = _led_pattern(spec, rng)
+        _draw_ring(camera, spec, light, center, normal, 1.0, rng, 0.0, leds)
         if spec.surface_height_m is not None:
             up = np.array(spec.surface_up, dtype=float)
             m_center = mirror_in_surface(center[None], up, spec.surface_height_m)[0]
             m_normal = normal - 2.0 * (normal @ up) * up / (up @ up)
-            _draw_ring(
-                camera, spec, light, m_center, m_normal, spec.reflection_gain, rng, spec.ripple_m
-            )
+            _draw_ring(camera, spec, light, m_center, m_normal, spec.reflection_gain, rng, spec.ripple_m,
+                       leds[::-1])  # a mirror shows the ring's top at the bottom
     for lamp in spec.lamps:
         _draw_disc(light, lamp.u, lamp.v, lamp.radius_px, lamp.gain)
+    for _ in range(spec.particles):  # far ones are specks; near the lens, dim out-of-focus discs
+        radius = float(np.exp(rng.uniform(np.log(0.5), np.log(6.0))))
+        _draw_disc(light, rng.uniform(0, w), rng.uniform(0, h), radius, rng.uniform(0.03, 0.4) / max(1.0, radius))
     light = _apply_optics(camera, spec, light)
     image = _compose(camera, spec, light, rng)
+    if spec.jpeg_quality:
+        encoded = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, int(spec.jpeg_quality)])[1]
+        image = cv2.imdecode(encoded, cv2.IMREAD_COLOR)
     return image, ground_truth(camera, spec)
+
+
+_PATTERN_BINS = 360  # brightness along a continuous strip, per degree of image angle
+
+
+def _led_pattern(spec: SceneSpec, rng: np.random.Generator) -> np.ndarray:
+    """Relative brightness of each LED (discrete) or of each degree along the strip (continuous).
+
+    LEDs differ from one another (log-normal spread) and some are dead; a strip dims and
+    brightens smoothly along its length and may have dark gaps (a broken segment).
+    """
+    if spec.led_count > 0:
+        factors = np.exp(rng.normal(0.0, spec.led_spread, spec.led_count)) if spec.led_spread > 0 \
+            else np.ones(spec.led_count)
+        if spec.dead_share > 0:
+            factors[rng.uniform(size=spec.led_count) < spec.dead_share] = 0.0
+        return factors
+    angle = np.linspace(0.0, 2 * math.pi, _PATTERN_BINS, endpoint=False)
+    pattern = np.ones(_PATTERN_BINS)
+    if spec.led_spread > 0:
+        wave = sum(rng.normal() * np.sin(k * angle + rng.uniform(0, 2 * math.pi)) / k for k in (1, 2, 3))
+        pattern = np.exp(spec.led_spread * wave)
+    if spec.dead_share > 0:
+        gaps = int(rng.integers(1, 4))
+        width = spec.dead_share * _PATTERN_BINS / gaps
+        for start in rng.uniform(0, _PATTERN_BINS, gaps):
+            pattern[(np.arange(_PATTERN_BINS) - start) % _PATTERN_BINS < width] = 0.0
+    return pattern
 
 
 def _draw_ring(
@@ -147,7 +192,9 @@ def _draw_ring(
     gain: float,
     rng: np.random.Generator,
     ripple: float,
+    leds: np.ndarray,
 ) -> None:
+    """The ring (or its reflection) into the light layer; ``leds`` from _led_pattern."""
     distance = float(np.linalg.norm(center))
     if center[2] <= 0.05:
         return
@@ -167,10 +214,12 @@ def _draw_ring(
     # Thin strips are drawn as lines carrying the same light per unit length as the strip:
     # narrower than a pixel, they come out dimmer, not thinner.
     value = radiance * width_px / thickness
+    if spec.funnel_glow > 0 and valid.all():
+        _draw_funnel_glow(light, pix, radiance * spec.funnel_glow)
     if spec.led_count > 0:
-        for (u, v), ok in zip(pix, valid):
-            if ok:
-                _draw_disc(light, u, v, max(0.7, width_px * 0.6), radiance * min(1.0, width_px))
+        for (u, v), ok, factor in zip(pix, valid, leds):
+            if ok and factor > 0:
+                _draw_disc(light, u, v, max(0.7, width_px * 0.6), factor * radiance * min(1.0, width_px))
         return
     layer = np.zeros(light.shape, np.uint8)
     if valid.all() and width_px >= 3.0 and ripple == 0.0:
@@ -181,7 +230,7 @@ def _draw_ring(
         inner, _ = camera.project(ring_points(center, normal, spec.marker_radius_m - half, count))
         cv2.fillPoly(layer, [np.round(outer * _SCALE).astype(np.int32)], 255, cv2.LINE_AA, _SHIFT)
         cv2.fillPoly(layer, [np.round(inner * _SCALE).astype(np.int32)], 0, cv2.LINE_AA, _SHIFT)
-        light += layer.astype(np.float32) * (radiance / 255.0)
+        _add_strip(light, layer, pix[valid], radiance, leds)
         return
     # A thin strip, a rippled reflection, or a ring partly beyond the lens model's fold or
     # behind the camera: a polyline through the valid runs (never a chord across the image).
@@ -190,7 +239,36 @@ def _draw_ring(
             continue
         poly = np.round(pix[run] * _SCALE).astype(np.int32)
         cv2.polylines(layer, [poly], len(run) == len(pix), 255, thickness, cv2.LINE_AA, _SHIFT)
-    light += layer.astype(np.float32) * (value / 255.0)
+    if valid.any():
+        _add_strip(light, layer, pix[valid], value, leds)
+
+
+def _add_strip(light: np.ndarray, layer: np.ndarray, ring_px: np.ndarray, value: float, pattern: np.ndarray) -> None:
+    """A drawn strip into the light layer, its brightness following the pattern around the ring."""
+    x0, y0, bw, bh = cv2.boundingRect(layer)
+    if bw == 0 or bh == 0:
+        return
+    strip = layer[y0:y0 + bh, x0:x0 + bw].astype(np.float32) * (value / 255.0)
+    if not np.all(pattern == 1.0):
+        cu, cv = ring_px.mean(axis=0)
+        ys, xs = np.mgrid[y0:y0 + bh, x0:x0 + bw]
+        angle = np.arctan2(ys - cv, xs - cu)
+        strip *= pattern[((angle + math.pi) / (2 * math.pi) * len(pattern)).astype(int) % len(pattern)]
+    light[y0:y0 + bh, x0:x0 + bw] += strip
+
+
+def _draw_funnel_glow(light: np.ndarray, ring_px: np.ndarray, value: float) -> None:
+    """LED light thrown on the dock's funnel: brightest next to the ring, fading towards its centre."""
+    h, w = light.shape
+    x0, y0 = (max(0, int(ring_px[:, i].min()) - 2) for i in (0, 1))
+    x1, y1 = min(w, int(ring_px[:, 0].max()) + 3), min(h, int(ring_px[:, 1].max()) + 3)
+    if x1 - x0 < 3 or y1 - y0 < 3:
+        return
+    inside = np.zeros((y1 - y0, x1 - x0), np.uint8)
+    cv2.fillPoly(inside, [np.round((ring_px - (x0, y0)) * _SCALE).astype(np.int32)], 255, cv2.LINE_8, _SHIFT)
+    depth = cv2.distanceTransform(inside, cv2.DIST_L2, 3)
+    radius = max(1.0, 0.5 * min(x1 - x0, y1 - y0))
+    light[y0:y1, x0:x1] += (inside > 0) * np.exp(-depth / (0.35 * radius)).astype(np.float32) * value
 
 
 def _valid_runs(valid: np.ndarray) -> list[np.ndarray]:
@@ -278,24 +356,78 @@ def _noise_field(height: int, width: int) -> np.ndarray:
 def _compose(camera: CameraModel, spec: SceneSpec, light: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """Water background + coloured light + shot and read noise, as 8-bit BGR.
 
-    The background is smooth per row, so its noise level is computed per row; only where
-    light was drawn is the noise level computed per pixel.
+    A plain background is smooth per row, so its noise level is computed per row and,
+    where light was drawn, per pixel. Structure, caustics or vignetting make every pixel
+    different: then everything is computed per pixel.
     """
     h, w = camera.height, camera.width
     rows = np.linspace(spec.ambient_top, spec.ambient_bottom, h, dtype=np.float32) + np.float32(spec.backscatter)
-    background = rows[:, None] * (np.array(spec.water_bgr, np.float32) * 255.0)[None, :]  # (h, 3)
-    row_sigma = np.sqrt(spec.read_noise**2 + spec.shot_noise**2 * background).astype(np.float32)
+    water = np.array(spec.water_bgr, np.float32) * 255.0
+    led = np.array(spec.led_bgr, np.float32) * 255.0
     dy, dx = (int(v) for v in rng.integers(0, _NOISE_MARGIN, 2))
     noise = _noise_field(h, w)[dy : dy + h, dx : dx + w]
+    if spec.clutter or spec.caustics or spec.vignetting:
+        level = np.maximum(rows[:, None] + _background_structure(spec, h, w, rng), 0.0)  # no negative light
+        clean = level[:, :, None] * water + light[:, :, None] * led
+        if spec.vignetting:
+            clean *= _vignette(h, w, spec.vignetting)[:, :, None]
+        image = clean + noise * np.sqrt(np.float32(spec.read_noise**2) + np.float32(spec.shot_noise**2) * clean)
+        np.clip(image, 0, 255, out=image)
+        return image.astype(np.uint8)
+    background = rows[:, None] * water[None, :]  # (h, 3)
+    row_sigma = np.sqrt(spec.read_noise**2 + spec.shot_noise**2 * background).astype(np.float32)
     image = noise * row_sigma[:, None, :]
     image += background[:, None, :]
     ys, xs = np.nonzero(light[::4, ::4] > 1e-4)
     if ys.size:  # add the light, and its shot noise, only where there is any
         y0, y1 = max(0, 4 * ys.min() - 4), min(h, 4 * ys.max() + 8)
         x0, x1 = max(0, 4 * xs.min() - 4), min(w, 4 * xs.max() + 8)
-        signal = light[y0:y1, x0:x1, None] * (np.array(spec.led_bgr, np.float32) * 255.0)
-        clean = background[y0:y1, None, :] + signal
+        clean = background[y0:y1, None, :] + light[y0:y1, x0:x1, None] * led
         sigma = np.sqrt(np.float32(spec.read_noise**2) + np.float32(spec.shot_noise**2) * clean)
         image[y0:y1, x0:x1] = clean + noise[y0:y1, x0:x1] * sigma
     np.clip(image, 0, 255, out=image)
     return image.astype(np.uint8)
+
+
+def _smooth_field(h: int, w: int, cell_px: int, rng: np.random.Generator) -> np.ndarray:
+    """Zero-mean, unit-spread random relief with features about ``cell_px`` across."""
+    coarse = rng.normal(size=(h // cell_px + 3, w // cell_px + 3)).astype(np.float32)
+    return cv2.resize(coarse, (w + 2 * cell_px, h + 2 * cell_px), interpolation=cv2.INTER_CUBIC)[
+        cell_px : cell_px + h, cell_px : cell_px + w]
+
+
+def _background_structure(spec: SceneSpec, h: int, w: int, rng: np.random.Generator) -> np.ndarray:
+    """What lies behind the dock, in image units: out-of-focus relief and bars, and caustics.
+
+    Relief: the floor, walls and dock frame far out of focus. Bars: struts of the dock's
+    frame, brighter or darker than the water. Caustics: sunlight focused by the waves into
+    a moving web of thin bright lines on the floor and walls (the zero crossings of a
+    smooth random field), strongest low in the frame where the floor is.
+    """
+    out = np.zeros((h, w), np.float32)
+    scale = max(1, w // 480)  # features keep their share of the frame at any resolution
+    if spec.clutter:
+        out += 0.5 * spec.clutter * _smooth_field(h, w, 40 * scale, rng)
+        bars = np.zeros((h, w), np.float32)
+        for _ in range(int(rng.integers(0, 4))):
+            a, b = rng.uniform(0, 1, 2), rng.uniform(0, 1, 2)
+            cv2.line(bars, (int(a[0] * w), int(a[1] * h)), (int(b[0] * w), int(b[1] * h)),
+                     float(rng.choice([-1.0, 1.0]) * spec.clutter), int(rng.integers(2, 12)) * scale, cv2.LINE_AA)
+        out += cv2.GaussianBlur(bars, (0, 0), float(rng.uniform(1.0, 4.0)) * scale)
+    if spec.caustics:
+        web = np.exp(-((_smooth_field(h, w, 24 * scale, rng) / 0.15) ** 2))
+        out += spec.caustics * web * np.linspace(0.3, 1.0, h, dtype=np.float32)[:, None]
+    return out
+
+
+@lru_cache(maxsize=4)
+def _vignette_shape(h: int, w: int) -> np.ndarray:
+    ys, xs = np.mgrid[0:h, 0:w].astype(np.float32)
+    r2 = ((xs - (w - 1) / 2) ** 2 + (ys - (h - 1) / 2) ** 2) / (((w - 1) / 2) ** 2 + ((h - 1) / 2) ** 2)
+    r2.setflags(write=False)
+    return r2
+
+
+def _vignette(h: int, w: int, share: float) -> np.ndarray:
+    """Lens and housing fall-off: 1 at the centre, 1 - share in the corners."""
+    return 1.0 - np.float32(share) * _vignette_shape(h, w)

@@ -1,3 +1,6 @@
+from dataclasses import replace
+
+import cv2
 import numpy as np
 
 from auv_dock_guidance.sim.scenarios import ScenarioMix, random_scene
@@ -46,3 +49,32 @@ def test_population_mixes_every_kind(camera):
     assert any(s.surface_height_m is not None for s in specs)
     assert any(s.lamps and s.marker_center_m is not None for s in specs)
     assert any(s.led_count > 0 for s in specs) and any(s.led_count == 0 for s in specs)
+
+
+def test_real_world_effects_show_where_they_should(camera):
+    base = SceneSpec(marker_center_m=(0.0, 0.0, 5.0), brightness=3.0, attenuation_per_m=0.05, seed=4)
+    plain, truth = render(camera, base)
+    u, v = (int(round(c)) for c in truth.center_px)
+    r = truth.radius_px
+    angles = np.linspace(0, 2 * np.pi, 720, endpoint=False)
+    on_ring = (np.round(v + r * np.sin(angles)).astype(int), np.round(u + r * np.cos(angles)).astype(int))
+
+    def grey(image):
+        return image.max(axis=2).astype(float)
+
+    dead, _ = render(camera, replace(base, dead_share=0.25))
+    dark = grey(dead)[on_ring] < 0.5 * grey(plain)[on_ring]
+    assert 0.15 < dark.mean() < 0.35  # about a quarter of the strip is dark
+    glow, _ = render(camera, replace(base, funnel_glow=0.2))
+    inside = np.s_[v - int(r / 2):v + int(r / 2), u - int(r / 2):u + int(r / 2)]
+    assert grey(glow)[inside].mean() > grey(plain)[inside].mean() + 5  # the funnel inside the ring is lit
+    vignetted, _ = render(camera, replace(base, vignetting=0.5))
+    corner, middle = np.s_[:60, :60], np.s_[500:560, 400:460]
+    assert grey(vignetted)[corner].mean() < 0.7 * grey(plain)[corner].mean()
+    assert abs(grey(vignetted)[middle].mean() - grey(plain)[middle].mean()) < 0.2 * grey(plain)[middle].mean()
+    for effect in (dict(caustics=0.1), dict(clutter=0.1)):  # light on the floor and walls, away from the ring
+        busy, _ = render(camera, replace(base, **effect))
+        added = cv2.blur(grey(busy), (9, 9)) - cv2.blur(grey(plain), (9, 9))  # structure, not pixel noise
+        assert np.percentile(np.abs(added[700:, :600]), 99) > 5.0
+    recorded, _ = render(camera, replace(base, jpeg_quality=60))
+    assert 0 < np.abs(recorded.astype(int) - plain.astype(int)).mean() < 3  # JPEG loses a little, everywhere
