@@ -21,8 +21,10 @@ out of the fit.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import cv2
 import numpy as np
@@ -174,8 +176,12 @@ class Detector:
         rejected: list[str] = []
         for box, radius_estimate in boxes:
             for region in self._refine(image, box, radius_estimate, rejected):
-                if not any(_same_region(region, other) for other in regions):
+                seen = next((i for i, other in enumerate(regions) if _same_region(region, other)), None)
+                if seen is None:
                     regions.append(region)
+                elif is_ring(region.shape, self.config.selection) and not is_ring(regions[seen].shape,
+                                                                                    self.config.selection):
+                    regions[seen] = region  # a wider window saw the whole ring where a narrow one saw an arc
         best = choose([r.shape for r in regions], self.config.selection)
         if best is None:
             reason = "no bright region" if not boxes else "rejected: " + "; ".join(sorted(set(rejected))[:3])
@@ -196,7 +202,10 @@ class Detector:
         """Bright regions on a small copy: (full-resolution box, radius estimate) each.
 
         Regions are grouped at several gap widths, so the separate LEDs of a ring come out
-        as one region at the width that bridges their spacing.
+        as one region at the width that bridges their spacing. The light is cut at two
+        levels: just above the noise (faint, far rings) and halfway to the brightest light
+        in view, where the LEDs come apart from dimmer light they touch (a web of caustics,
+        glow on structure) that would otherwise make one region of the whole frame.
         """
         c = self.config
         s = c.search_scale
@@ -211,23 +220,27 @@ class Detector:
         noise = 1.4826 * float(np.median(np.abs(sample.astype(np.float32) - typical)))
         # Search wide: a low floor finds faint, far rings; the refinement's floor decides.
         floor = typical + max(c.search_floor_grey, c.search_floor_noise_sigmas * noise)
-        _, mask = cv2.threshold(tophat, floor, 255, cv2.THRESH_BINARY)
+        bright = floor + 0.5 * (float(tophat.max()) - floor)
         h, w = image.shape[:2]
-        min_area = max(2.0, (c.selection.min_radius_px * s) ** 2)
+        min_radius = 0.7 * max(c.selection.min_radius_px, self._min_radius_px())  # smaller: no ring we accept
         boxes: list[tuple[tuple[int, int, int, int], float]] = []
-        for gap_px in c.search_gaps_px:
+        low, high = (cv2.threshold(tophat, level, 255, cv2.THRESH_BINARY)[1] for level in (floor, bright))
+        for mask, gap_px in [*itertools.product([low], c.search_gaps_px), (high, 0)]:
             kernel_size = int(round(gap_px * s)) | 1
             grouped = mask if kernel_size <= 1 else cv2.dilate(
                 mask, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (kernel_size, kernel_size))
             )
-            count, _, stats, _ = cv2.connectedComponentsWithStats(grouped, connectivity=8)
-            comps = [i for i in range(1, count) if stats[i, cv2.CC_STAT_AREA] >= min_area]
-            comps.sort(key=lambda i: stats[i, cv2.CC_STAT_AREA], reverse=True)
-            for i in comps[: c.max_candidates]:
+            count, labels, stats, _ = cv2.connectedComponentsWithStats(grouped, connectivity=8)
+            found = []
+            for i in range(1, count):
                 x, y, bw, bh = (int(v) for v in stats[i, :4])
-                x0, y0 = (x - 1) / s, (y - 1) / s
-                x1, y1 = (x + bw + 1) / s, (y + bh + 1) / s
+                x0, y0, x1, y1 = (x - 1) / s, (y - 1) / s, (x + bw + 1) / s, (y + bh + 1) / s
                 radius = max(1.0, 0.5 * max(x1 - x0, y1 - y0) - 0.5 * (kernel_size - 1) / s)
+                if radius >= min_radius:
+                    peak = float(tophat[y:y + bh, x:x + bw][labels[y:y + bh, x:x + bw] == i].max())
+                    found.append((peak, radius, (x0, y0, x1, y1)))
+            found.sort(reverse=True)  # brightest first: a web of caustics or glow must not crowd the LEDs out
+            for _, radius, (x0, y0, x1, y1) in found[: c.max_candidates]:
                 margin = 0.25 * radius + 12 + 0.5 * kernel_size / s
                 box = (
                     max(0, int(x0 - margin)),
@@ -235,7 +248,7 @@ class Detector:
                     min(w, int(math.ceil(x1 + margin))),
                     min(h, int(math.ceil(y1 + margin))),
                 )
-                if not any(_overlap(box, other) > 0.7 for other, _ in boxes):
+                if not _covered(box, radius, boxes):
                     boxes.append((box, radius))
         return boxes
 
@@ -262,17 +275,18 @@ class Detector:
         if peak <= level:
             rejected.append("too faint")
             return []
-        _, mask = cv2.threshold(smooth, level, 255, cv2.THRESH_BINARY)
         contrast = peak - background
         edges = improved_canny(gray, c.canny_low * contrast, c.canny_high * contrast, smoothed=smooth)
         near_edge = cv2.dilate(edges, np.ones((5, 5), np.uint8))
         # Close small gaps first; a faint ring that noise broke into arcs gets a wider
         # closing, scaled to its size, when the narrow one found no ring.
+        _, mask = cv2.threshold(smooth, level, 255, cv2.THRESH_BINARY)
         wide = max(5, int(0.2 * radius_estimate * scale)) | 1
         regions: list[_Region] = []
         for close in (3, wide) if wide > 3 else (3,):
             closed = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (close, close)))
-            found = self._regions(closed, near_edge, scale, x0, y0, level, rejected)
+            found = self._regions(closed, near_edge, smooth, background, image.shape[:2], scale, (x0, y0), level,
+                                  rejected)
             if any(is_ring(r.shape, c.selection) for r in found) or not regions:
                 regions = found
             if any(is_ring(r.shape, c.selection) for r in regions):
@@ -280,16 +294,20 @@ class Detector:
         return regions
 
     def _regions(
-        self, mask: np.ndarray, near_edge: np.ndarray, scale: float, x0: int, y0: int, level: float,
-        rejected: list[str],
+        self, mask: np.ndarray, near_edge: np.ndarray, smooth: np.ndarray, background: float,
+        frame_size: tuple[int, int], scale: float, origin: tuple[int, int], level: float, rejected: list[str],
     ) -> list[_Region]:
         """Closed regions of one window's mask that pass the gates, in full-resolution units."""
+        x0, y0 = origin
         contours, hierarchy = cv2.findContours(mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
         if hierarchy is None:
             return []
         min_radius_full = self._min_radius_px()
+        selection = self.config.selection
         regions: list[_Region] = []
-        dots = []
+        outlines: list[tuple[np.ndarray, _Region]] = []  # every closed outline, a candidate of its own
+        dot_of: dict[int, int] = {}  # outline -> its index among the blobs without a hole
+        dots: list[_Dot] = []
         for idx, contour in enumerate(contours):
             if hierarchy[0][idx][3] != -1:
                 continue  # a hole; handled with its outer contour
@@ -298,7 +316,8 @@ class Detector:
             hole_area = _pixel_area(hole) - cv2.arcLength(hole, True) if hole is not None else 0.0
             pts = contour[:, 0, :]
             support = float(np.count_nonzero(near_edge[pts[:, 1], pts[:, 0]])) / len(pts)
-            if hole_area < self.config.selection.min_hole_fraction * area:
+            if hole_area < selection.min_hole_fraction * area:
+                dot_of[len(outlines)] = len(dots)
                 dots.append((pts, area, support))
             (_, _), (d1, d2), _ = cv2.minAreaRect(contour)
             outer_full = _to_full(pts, scale, x0, y0)
@@ -312,30 +331,48 @@ class Detector:
                 edge_support=support,
             )
             hole_full = _to_full(hole[:, 0, :], scale, x0, y0) if hole is not None else None
-            self._keep(_Region(shape, level, outer_full, hole_full), min_radius_full, regions, rejected)
-        for group in _dot_rings(dots, mask.shape):
-            pts, centers, support, ellipse_area, axis_ratio, center_v = group
+            outlines.append((contour, _Region(shape, level, outer_full, hole_full)))
+        in_rings: set[int] = set()
+        for ring in _dot_rings(dots):
+            outline_full = _to_full(ring.outline, scale, x0, y0)
+            if ring.led_centers is None and _on_border(outline_full, frame_size).any():
+                continue  # arcs the frame cuts (a reflection at the top edge) are open, not broken
+            members = [dots[m][0][:, None, :] for m in ring.members]
             shape = CandidateShape(
-                area_px=ellipse_area / (scale * scale),
-                center_v=(center_v + 0.5) / scale - 0.5 + y0,
-                radius_px=math.sqrt(ellipse_area / math.pi / max(axis_ratio, 1e-6)) / scale,
-                axis_ratio=axis_ratio,
+                area_px=ring.area / (scale * scale),
+                center_v=(ring.center_row + 0.5) / scale - 0.5 + y0,
+                radius_px=math.sqrt(ring.area / math.pi / max(ring.axis_ratio, 1e-6)) / scale,
+                axis_ratio=ring.axis_ratio,
                 hole_fraction=1.0,
-                edge_support=support,
+                edge_support=ring.edge_support,
+                contrast=_mean_level(smooth, mask, members) - background,
+                ellipse_residual=ring.residual,
             )
-            region = _Region(
-                shape, level, _to_full(pts, scale, x0, y0), None, dotted=True,
-                led_centers=_to_full(centers, scale, x0, y0),
-            )
+            centers = None if ring.led_centers is None else _to_full(ring.led_centers, scale, x0, y0)
+            region = _Region(shape, level, outline_full, None, dotted=True, led_centers=centers)
+            if self._keep(region, min_radius_full, regions, rejected):
+                in_rings.update(ring.members)
+        for i, (contour, region) in enumerate(outlines):
+            if dot_of.get(i) in in_rings:
+                continue  # an arc or LED of a ring is not a candidate of its own
+            reason = rejection_reason(region.shape, selection, min_radius_full)  # the cheap gates first
+            if reason is not None:
+                rejected.append(reason)
+                continue
+            region.shape = dataclasses.replace(
+                region.shape, contrast=_mean_level(smooth, mask, [contour]) - background,
+                ellipse_residual=self._outline_residual(region.outer, frame_size))
             self._keep(region, min_radius_full, regions, rejected)
         return regions
 
-    def _keep(self, region: _Region, min_radius_px: float, regions: list[_Region], rejected: list[str]) -> None:
+    def _keep(self, region: _Region, min_radius_px: float, regions: list[_Region], rejected: list[str]) -> bool:
+        """Add the region if it passes the gates, else note why not; whether it was added."""
         reason = rejection_reason(region.shape, self.config.selection, min_radius_px)
         if reason is None:
             regions.append(region)
         else:
             rejected.append(reason)
+        return reason is None
 
     def _min_radius_px(self) -> float:
         focal = self.camera.focal_px if self.camera is not None else 0.0
@@ -389,6 +426,28 @@ class Detector:
             u=u, v=v, radius_px=centre_line.semi_major * focal, is_ring=True, ellipse=centre_line,
             pose=pose, ring_normal=normal, **common,
         )
+
+    def _outline_residual(self, points_px: np.ndarray, frame_size: tuple[int, int], samples: int = 96) -> float:
+        """How far an outline is from an ellipse: rms radial distance / mean radius (0 when unknown).
+
+        On the undistorted plane, where a circle seen from any angle is an ellipse (the lens
+        bends a large ring near the frame's edge away from one). Points on the frame's
+        border are left out: a ring cut by the edge is still an ellipse.
+        """
+        points = points_px[~_on_border(points_px, frame_size)]
+        points = points[:: max(1, len(points) // samples)]
+        if self.camera is not None:
+            xy, valid = self.camera.pixels_to_normalized(points)
+            points = xy[valid] * self.camera.focal_px
+        if len(points) < 8:
+            return 0.0
+        (cx, cy), (d1, d2), angle = cv2.fitEllipse(points.astype(np.float32))
+        if not (min(d1, d2) > 0 and math.isfinite(d1 + d2)):
+            return 0.0
+        ellipse = Ellipse(cx, cy, max(d1, d2) / 2.0, min(d1, d2) / 2.0,
+                          math.radians(angle) if d1 >= d2 else math.radians(angle + 90.0))
+        residual = _radial_residual(ellipse, points.astype(np.float64)) / math.sqrt(ellipse.semi_major * ellipse.semi_minor)
+        return float(np.sqrt(np.mean(residual * residual)))
 
     def _led_points(self, region: _Region) -> np.ndarray | None:
         """LED image centres on the normalized plane (those that undistort validly)."""
@@ -461,6 +520,17 @@ def _same_region(a: _Region, b: _Region) -> bool:
     return float(np.hypot(*(ca - cb))) < 0.3 * max(a.shape.radius_px, b.shape.radius_px)
 
 
+def _covered(box: tuple[int, int, int, int], radius: float, boxes: list[tuple[tuple[int, int, int, int], float]]) -> bool:
+    """A window adds nothing when another nearly the same, or one at most twice as large that
+    contains it, is already refined."""
+    return any(
+        _overlap(box, other) > 0.7
+        or (other[0] <= box[0] and other[1] <= box[1] and other[2] >= box[2] and other[3] >= box[3]
+            and other_radius <= 2.0 * radius)
+        for other, other_radius in boxes
+    )
+
+
 def _overlap(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> float:
     """Intersection over union of two boxes (x0, y0, x1, y1)."""
     ix = max(0, min(a[2], b[2]) - max(a[0], b[0]))
@@ -475,43 +545,74 @@ def _pixel_area(contour: np.ndarray) -> float:
     return cv2.contourArea(contour) + 0.5 * cv2.arcLength(contour, True) + 1.0
 
 
-def _dot_rings(
-    dots: list[tuple[np.ndarray, float, float]], shape: tuple[int, int], min_dots: int = 6
-) -> list[tuple[np.ndarray, np.ndarray, float, float, float, float]]:
-    """Rings of separate LEDs among the blobs of one window, one per chain of neighbours.
+_Dot = tuple[np.ndarray, float, float]  # outline (N, 2), area, edge support
 
-    Blobs are chained when their outlines come closer than 2.5 typical neighbour gaps
-    (found by dilating them), so a ring and its reflection, or a ring and a lamp cluster,
-    are fitted apart, while LEDs that motion blur smeared together still chain.
+
+class _SegmentRing(NamedTuple):
+    """Separate LEDs, or arcs, of one ring among a window's blobs (window pixels)."""
+
+    members: tuple[int, ...]  # the blobs it is made of
+    outline: np.ndarray  # all their outline points
+    led_centers: np.ndarray | None  # None for arcs
+    edge_support: float
+    area: float  # of the ellipse through them
+    axis_ratio: float
+    center_row: float
+    residual: float  # rms distance from the ellipse relative to its size
+
+
+def _dot_rings(dots: list[_Dot], min_dots: int = 6) -> list[_SegmentRing]:
+    """Rings of separate LEDs, or of arcs, among the blobs of one window, one per chain of neighbours.
+
+    Blobs are chained when they come closer than 2.5 typical neighbour gaps, so a ring
+    and its reflection, or a ring and a lamp cluster, are fitted apart, while LEDs that
+    motion blur smeared together still chain.
     """
-    if len(dots) < min_dots:
-        return []
-    centroids = np.array([d[0].mean(axis=0) for d in dots], dtype=np.float64)
-    radii = np.sqrt(np.array([d[1] for d in dots]) / math.pi)
-    dist = np.hypot(*(centroids[:, None, :] - centroids[None, :, :]).transpose(2, 0, 1))
-    dist -= radii[:, None] + radii[None, :]
-    np.fill_diagonal(dist, np.inf)
-    link = int(2.5 * max(1.0, float(np.median(dist.min(axis=1))))) | 1
-    canvas = np.zeros(shape, np.uint8)
-    cv2.drawContours(canvas, [d[0][:, None, :] for d in dots], -1, 255, -1)
-    canvas = cv2.dilate(canvas, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (link + 2, link + 2)))
-    _, labels = cv2.connectedComponents(canvas)
-    clusters: dict[int, list[int]] = {}
-    for i, d in enumerate(dots):
-        x, y = d[0][0]
-        clusters.setdefault(int(labels[y, x]), []).append(i)
+    clusters = [list(range(len(dots)))] if len(dots) == 1 else _chains(dots)
     rings = []
-    for members in clusters.values():
-        ring = _dot_ring([dots[m] for m in members], min_dots)
+    for members in clusters:
+        group = [dots[m] for m in members]
+        ring = _dot_ring(group, min_dots) or _arc_ring(group)
         if ring is not None:
-            rings.append(ring)
+            rings.append(ring._replace(members=tuple(members[m] for m in ring.members)))
     return rings
 
 
-def _dot_ring(
-    dots: list[tuple[np.ndarray, float, float]], min_dots: int
-) -> tuple[np.ndarray, np.ndarray, float, float, float, float] | None:
-    """Separate LEDs on one ellipse: (outlines, centres, edge support, area, axis ratio, centre row).
+def _chains(dots: list[_Dot], max_dots: int = 300) -> list[list[int]]:
+    """Indices of blobs chained by gaps under 2.5 typical neighbour gaps, chain by chain.
+
+    The gap between two blobs is their centres' distance less their equivalent radii.
+    Only the ``max_dots`` largest take part (noise can make thousands of specks).
+    """
+    if not dots:
+        return []
+    order = sorted(range(len(dots)), key=lambda i: dots[i][1], reverse=True)[:max_dots]
+    centroids = np.array([dots[i][0].mean(axis=0) for i in order], dtype=np.float64)
+    radii = np.sqrt(np.array([dots[i][1] for i in order]) / math.pi)
+    gap = np.hypot(*(centroids[:, None, :] - centroids[None, :, :]).transpose(2, 0, 1))
+    gap -= radii[:, None] + radii[None, :]
+    np.fill_diagonal(gap, np.inf)
+    linked = gap <= 2.5 * max(1.0, float(np.median(gap.min(axis=1)))) + 2.0
+    chain = [-1] * len(order)
+    chains: list[list[int]] = []
+    for start in range(len(order)):
+        if chain[start] >= 0:
+            continue
+        chain[start] = len(chains)
+        members, todo = [], [start]
+        while todo:
+            i = todo.pop()
+            members.append(order[i])
+            for j in np.flatnonzero(linked[i]):
+                if chain[j] < 0:
+                    chain[j] = chain[start]
+                    todo.append(int(j))
+        chains.append(members)
+    return chains
+
+
+def _dot_ring(dots: list[_Dot], min_dots: int) -> _SegmentRing | None:
+    """Separate LEDs on one ellipse (members are indices into ``dots``).
 
     Blobs of similar size are fitted with an ellipse through their centroids; blobs far off
     it are dropped and the fit repeated. The group counts as a ring when enough LEDs remain
@@ -536,6 +637,7 @@ def _dot_ring(
         yr = (-rel[:, 0] * math.sin(t) + rel[:, 1] * math.cos(t)) / (d2 / 2)
         residual = np.abs(np.hypot(xr, yr) - 1.0)
         keep = [m for m, r in zip(members, residual) if r < 0.15]
+        rms = float(np.sqrt(np.mean(residual[residual < 0.15] ** 2))) if keep else 1.0
         if len(keep) == len(members):
             break
         members = keep
@@ -545,9 +647,58 @@ def _dot_ring(
     sectors = len(set(((angles + math.pi) / (2 * math.pi) * 8).astype(int) % 8))
     if sectors < 5:
         return None
-    points = np.concatenate([dots[m][0] for m in members])
-    support = float(np.mean([dots[m][2] for m in members]))
-    return points, centroids[members], support, math.pi * d1 * d2 / 4.0, min(d1, d2) / max(d1, d2), float(cy)
+    return _SegmentRing(
+        members=tuple(members), outline=np.concatenate([dots[m][0] for m in members]),
+        led_centers=centroids[members], edge_support=float(np.mean([dots[m][2] for m in members])),
+        area=math.pi * d1 * d2 / 4.0,
+        axis_ratio=min(d1, d2) / max(d1, d2), center_row=float(cy), residual=rms,
+    )
+
+
+def _arc_ring(dots: list[_Dot], min_coverage: float = 0.6) -> _SegmentRing | None:
+    """Arcs of one ring, broken by dim or dead LEDs or partly hidden: outlines on one ellipse.
+
+    The outline points of a thin band lie on both sides of its centre line, so an ellipse
+    fitted to all of them is the centre line. The group counts as a ring when the band is
+    thin against the ellipse (it does not fill it, as a lamp's disc does), its distance
+    from the ellipse is about the same all round (the band's half width), and it covers
+    most of the circumference (10-degree bins), so a few scattered glints that happen to
+    lie on some conic cannot pose as one. Its centre row and size are the ellipse's.
+    """
+    points = np.concatenate([d[0] for d in dots]).astype(np.float64)
+    if len(points) < 16:
+        return None
+    (cx, cy), (d1, d2), angle = cv2.fitEllipse(points.astype(np.float32))
+    if not (min(d1, d2) > 2 and math.isfinite(d1 + d2)):
+        return None
+    ellipse = Ellipse(cx, cy, max(d1, d2) / 2.0, min(d1, d2) / 2.0,
+                      math.radians(angle) if d1 >= d2 else math.radians(angle + 90.0))
+    offset = np.abs(_radial_residual(ellipse, points)) / math.sqrt(ellipse.semi_major * ellipse.semi_minor)
+    area = sum(d[1] for d in dots)
+    ellipse_area = math.pi * d1 * d2 / 4.0
+    angles = np.arctan2(points[:, 1] - cy, points[:, 0] - cx)
+    covered = len(set(((angles + math.pi) / (2 * math.pi) * 36).astype(int) % 36)) / 36.0
+    if area > 0.5 * ellipse_area or float(np.mean(offset)) > 0.25 or covered < min_coverage:
+        return None
+    return _SegmentRing(
+        members=tuple(range(len(dots))), outline=points.astype(np.int32), led_centers=None,
+        edge_support=float(np.mean([d[2] for d in dots])), area=ellipse_area, axis_ratio=min(d1, d2) / max(d1, d2), center_row=float(cy), residual=float(np.std(offset)),
+    )
+
+
+def _mean_level(smooth: np.ndarray, mask: np.ndarray, contours: list[np.ndarray]) -> float:
+    """Mean grey level of the segmented pixels inside these outlines (holes excluded)."""
+    x, y, w, h = cv2.boundingRect(np.concatenate(contours))
+    inside = np.zeros((h, w), np.uint8)
+    cv2.drawContours(inside, contours, -1, 255, -1, offset=(-x, -y))
+    inside &= mask[y:y + h, x:x + w]
+    return float(cv2.mean(smooth[y:y + h, x:x + w], mask=inside)[0])
+
+
+def _on_border(points: np.ndarray, frame_size: tuple[int, int]) -> np.ndarray:
+    """Which full-resolution points lie on the frame's outermost pixels."""
+    h, w = frame_size
+    return (points[:, 0] <= 1.0) | (points[:, 0] >= w - 2.0) | (points[:, 1] <= 1.0) | (points[:, 1] >= h - 2.0)
 
 
 def _radial_residual(ellipse: Ellipse, xy: np.ndarray) -> np.ndarray:

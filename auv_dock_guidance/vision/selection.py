@@ -1,12 +1,15 @@
 """Which bright region is the dock's ring (paper section 2.3, Fig. 5), and which are not.
 
 Gates first drop what cannot be the marker: too small for the farthest range we accept
-(glints, speckle, distant lamps), too elongated (streaks), or without a real edge around
-it (haze, glow). Among the rest the paper's rule chooses: the largest closed contour,
-and when several are about equally large the lowest in the image, because a surface
-reflection always appears above the light it mirrors. One addition: a region with the
-ring's dark centre beats a solid blob, so a lamp cannot win on size alone once the ring
-is resolved.
+(glints, speckle, distant lamps), too elongated (streaks), without a real edge around it
+(haze, glow), or with an outline no ellipse fits (caustics, structure: a circle seen at
+any angle is an ellipse). Among the rest the paper's rule chooses: the largest closed
+contour, and when several are about equally large the lowest in the image, because a
+surface reflection always appears above the light it mirrors. Two additions: a region
+with the ring's dark centre beats a solid blob, so a lamp cannot win on size alone once
+the ring is resolved; and regions much dimmer than the brightest of their kind are not
+the LEDs but light the water made (caustics, glow on structure), so they do not compete.
+A surface reflection is nearly as bright as the ring and still meets the tie rule.
 """
 
 from __future__ import annotations
@@ -23,7 +26,9 @@ class SelectionConfig:
     min_radius_px: float = 3.0  # smaller: a glint or speckle
     min_hole_fraction: float = 0.12  # hole area / outer area for a region to count as a ring
     min_axis_ratio: float = 0.25  # minor / major axis; below: a streak, not a ring
-    min_edge_support: float = 0.3  # share of the outline that lies on an improved-Canny edge
+    min_edge_support: float = 0.8  # share of the outline on an improved-Canny edge (LEDs are sharp lights)
+    max_ellipse_residual: float = 0.05  # rms distance of the outline from its ellipse / mean radius
+    min_contrast_share: float = 0.35  # dimmer than this share of the brightest of its kind: not the LEDs
     tie_ratio: float = 0.7  # areas within this ratio of the largest are "equally large"
     prefer_rings: bool = True
 
@@ -34,6 +39,8 @@ class SelectionConfig:
             raise ConfigError("min_radius_px must be >= 0 and min_hole_fraction in [0, 1)")
         if not 0.0 <= self.min_axis_ratio <= 1.0 or not 0.0 <= self.min_edge_support <= 1.0:
             raise ConfigError("min_axis_ratio and min_edge_support must be in [0, 1]")
+        if not self.max_ellipse_residual > 0 or not 0.0 <= self.min_contrast_share <= 1.0:
+            raise ConfigError("max_ellipse_residual must be positive and min_contrast_share in [0, 1]")
 
 
 @dataclass(frozen=True)
@@ -46,6 +53,8 @@ class CandidateShape:
     axis_ratio: float
     hole_fraction: float
     edge_support: float
+    contrast: float = 0.0  # mean grey level of the region above its surroundings
+    ellipse_residual: float = 0.0  # rms distance of the outline from its fitted ellipse / mean radius
 
 
 def rejection_reason(shape: CandidateShape, config: SelectionConfig, min_radius_px: float) -> str | None:
@@ -56,6 +65,8 @@ def rejection_reason(shape: CandidateShape, config: SelectionConfig, min_radius_
         return f"elongated (axis ratio {shape.axis_ratio:.2f})"
     if shape.edge_support < config.min_edge_support:
         return f"no sharp outline (edge support {shape.edge_support:.2f})"
+    if shape.ellipse_residual > config.max_ellipse_residual:
+        return f"not an ellipse (outline off by {100 * shape.ellipse_residual:.0f} % of its radius)"
     return None
 
 
@@ -71,6 +82,8 @@ def choose(shapes: list[CandidateShape], config: SelectionConfig) -> int | None:
     if config.prefer_rings:
         rings = [i for i in pool if is_ring(shapes[i], config)]
         pool = rings or pool
+    brightest = max(shapes[i].contrast for i in pool)
+    pool = [i for i in pool if shapes[i].contrast >= config.min_contrast_share * brightest]
     largest = max(shapes[i].area_px for i in pool)
     tied = [i for i in pool if shapes[i].area_px >= config.tie_ratio * largest]
     return max(tied, key=lambda i: shapes[i].center_v)
