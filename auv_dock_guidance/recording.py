@@ -16,6 +16,7 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
 from auv_dock_guidance.errors import DockGuidanceError
+from auv_dock_guidance.nodes.common import TRANSITION_QOS
 
 DEBUG_TOPICS = {
     "dock/target": "geometry_msgs/msg/PointStamped",
@@ -31,6 +32,14 @@ DEBUG_TOPICS = {
     "vehicle/depth": "std_msgs/msg/Float64",
     "/diagnostics": "diagnostic_msgs/msg/DiagnosticArray",
 }
+
+
+def listening_qos(topic: str) -> QoSProfile:
+    """How an observer subscribes: best effort (never slows the vehicle), but the latched
+    transitions as latched, so the reasons for the current state arrive however late it joins."""
+    if topic.lstrip("/") == "guidance/transition":
+        return TRANSITION_QOS
+    return QoSProfile(depth=50, reliability=ReliabilityPolicy.BEST_EFFORT)
 
 
 def message_class(msgtype: str) -> type:
@@ -52,7 +61,6 @@ class BagRecorder:
         self.counts: dict[str, int] = {}
         self.bytes: dict[str, int] = {}
         typestore = get_typestore(Stores.ROS2_JAZZY)
-        qos = QoSProfile(depth=50, reliability=ReliabilityPolicy.BEST_EFFORT)
         self._subscriptions = []
         for topic, msgtype in topics.items():
             name = topic if topic.startswith("/") else f"/{topic}"
@@ -60,7 +68,7 @@ class BagRecorder:
             self.counts[name] = 0
             self.bytes[name] = 0
             self._subscriptions.append(node.create_subscription(
-                message_class(msgtype), topic, self._writer_for(connection, name, node), qos, raw=True))
+                message_class(msgtype), topic, self._writer_for(connection, name, node), listening_qos(topic), raw=True))
 
     def _writer_for(self, connection, name: str, node: Node):
         def write(data: bytes) -> None:

@@ -41,6 +41,7 @@ def run(args: argparse.Namespace) -> int:
     from geometry_msgs.msg import Vector3Stamped
     from std_msgs.msg import String
 
+    from auv_dock_guidance.nodes.common import TRANSITION_QOS
     from auv_dock_guidance.recording import DEBUG_TOPICS, BagRecorder
     from auv_dock_guidance.sim_system import SimulatedSystem
 
@@ -54,7 +55,8 @@ def run(args: argparse.Namespace) -> int:
     node, vehicle = system.node, system.vehicle
     seen = {"state": "starting", "bearing": None}
     node.create_subscription(String, "guidance/state", lambda m: seen.__setitem__("state", m.data), 10)
-    node.create_subscription(String, "guidance/transition", lambda m: print(f"  guidance: {m.data}", flush=True), 10)
+    node.create_subscription(String, "guidance/transition", lambda m: print(f"  guidance: {m.data}", flush=True),
+                             TRANSITION_QOS)
     bearings: list[tuple[float, float, float]] = []
     t0 = time.monotonic()
 

@@ -99,10 +99,12 @@ def run_monitor(args: argparse.Namespace) -> int:
     from rich.live import Live
     from std_msgs.msg import Bool, String, UInt16MultiArray
 
+    from auv_dock_guidance.nodes.common import TRANSITION_QOS
+
     view = ShoreView()
     node = _node(args.domain_id, "auv_dock_shore_monitor")
     node.create_subscription(String, "guidance/state", lambda m: view.put("state", m.data), 10)
-    node.create_subscription(String, "guidance/transition", lambda m: view.put("transition", m.data), 10)
+    node.create_subscription(String, "guidance/transition", lambda m: view.put("transition", m.data), TRANSITION_QOS)
     node.create_subscription(Vector3Stamped, "dock/bearing",
                              lambda m: view.put("bearing", (m.vector.x, m.vector.y, m.vector.z)), 10)
 
@@ -147,15 +149,13 @@ def run_monitor(args: argparse.Namespace) -> int:
 def run_foxglove(args: argparse.Namespace) -> int:
     import foxglove
     import rclpy
-    from rclpy.qos import QoSProfile, ReliabilityPolicy
     from rosbags.typesys import Stores, get_typestore
 
-    from auv_dock_guidance.recording import DEBUG_TOPICS, message_class
+    from auv_dock_guidance.recording import DEBUG_TOPICS, listening_qos, message_class
 
     typestore = get_typestore(Stores.ROS2_JAZZY)
     server = foxglove.start_server(name="auv_dock_guidance", host=args.host, port=args.port)
     node = _node(args.domain_id, "auv_dock_foxglove_bridge")
-    qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
     channels = []
     for topic, msgtype in DEBUG_TOPICS.items():
         definition, _ = typestore.generate_msgdef(msgtype, ros_version=2)
@@ -163,7 +163,8 @@ def run_foxglove(args: argparse.Namespace) -> int:
         channel = foxglove.Channel("/" + topic.lstrip("/"), schema=schema, message_encoding="cdr")
         channels.append(channel)
         node.create_subscription(message_class(msgtype), topic,
-                                 lambda raw, ch=channel: ch.log(bytes(raw), log_time=time.time_ns()), qos, raw=True)
+                                 lambda raw, ch=channel: ch.log(bytes(raw), log_time=time.time_ns()),
+                                 listening_qos(topic), raw=True)
     print(f"Foxglove: open ws://{args.host}:{args.port} (layout config/foxglove_layout.json); Ctrl-C stops", flush=True)
     end = time.monotonic() + args.seconds if args.seconds else None
     try:

@@ -16,8 +16,14 @@ from rclpy.exceptions import InvalidParameterValueException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, QoSProfile
 
 from auv_dock_guidance.errors import DockGuidanceError
+
+
+# guidance/transition is latched: whoever subscribes late (a shore laptop, a recorder) still
+# gets the recent transitions, with the reason for the state the vehicle is in.
+TRANSITION_QOS = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
 @dataclass(frozen=True)

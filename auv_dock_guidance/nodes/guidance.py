@@ -22,7 +22,6 @@ from typing import Any
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PointStamped, Vector3Stamped
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile
 from sensor_msgs.msg import Imu
 from std_msgs.msg import Bool, Float64, MultiArrayDimension, String, UInt16MultiArray
 from std_srvs.srv import Trigger
@@ -33,6 +32,7 @@ from auv_dock_guidance.control.mixer import MixerConfig
 from auv_dock_guidance.control.pid import PidGains
 from auv_dock_guidance.errors import DockGuidanceError
 from auv_dock_guidance.nodes.common import (
+    TRANSITION_QOS,
     InputProblems,
     Param,
     declare,
@@ -106,8 +106,7 @@ class GuidanceNode(Node):
         self.demands_pub = self.create_publisher(Vector3Stamped, "guidance/demands", 10)
         self.setpoint_pub = self.create_publisher(Vector3Stamped, "guidance/setpoint", 10)
         self.state_pub = self.create_publisher(String, "guidance/state", 10)
-        latched = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self.transition_pub = self.create_publisher(String, "guidance/transition", latched)
+        self.transition_pub = self.create_publisher(String, "guidance/transition", TRANSITION_QOS)
         self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_service(Trigger, "guidance/reset", self._on_reset)
         self.create_timer(1.0 / self.values["control_rate_hz"], self._on_timer)

@@ -84,7 +84,7 @@ def test_commands_reach_the_controller_and_follow_the_marker(frames, domain_id, 
     assert all(code == 0 for code in codes.values()), f"unclean shutdown {codes}; logs: {logs}"
     assert controller.applied == NEUTRAL  # the bridge leaves the thrusters neutral on shutdown
     assert monitor.returncode == 0, monitor.stderr
-    assert "TRACK" in monitor.stdout and "live" in monitor.stdout  # the shore monitor saw the run
+    assert "TRACK" in monitor.stdout and "live" in monitor.stdout, monitor.stdout  # the shore monitor saw the run
 
 
 def _driving(controller: MainControllerSim) -> list:
