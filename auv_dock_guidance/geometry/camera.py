@@ -312,6 +312,9 @@ def _matrix_data(data: dict[str, Any], key: str, path: Path) -> list[float]:
     return floats
 
 
+PAPER_FOCAL_PX = 1734.9  # paper_camera().focal_px: the lens the pixel sizes of our defaults are for
+
+
 def paper_camera() -> CameraModel:
     """The paper's Table 2 calibration at 1920x1080 (the same as config/camera_info.yaml)."""
     return CameraModel(

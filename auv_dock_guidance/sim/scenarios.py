@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from auv_dock_guidance.geometry.camera import CameraModel
+from auv_dock_guidance.geometry.camera import PAPER_FOCAL_PX, CameraModel
 from auv_dock_guidance.sim.scene import Lamp, SceneSpec
 
 _LED_COLOURS = (
@@ -152,16 +152,18 @@ def _with_reflection(camera: CameraModel, rng: np.random.Generator, spec: SceneS
 
 
 def _lamps(camera: CameraModel, rng: np.random.Generator, count: int) -> tuple[Lamp, ...]:
+    size = camera.focal_px / PAPER_FOCAL_PX  # sizes below are for the paper's lens; a shorter one shows them smaller
     return tuple(
-        Lamp(rng.uniform(0, camera.width), rng.uniform(0, camera.height), rng.uniform(2.0, 10.0),
+        Lamp(rng.uniform(0, camera.width), rng.uniform(0, camera.height), size * rng.uniform(2.0, 10.0),
              rng.uniform(0.3, 3.0))
         for _ in range(count)
     )
 
 
 def _glints(camera: CameraModel, rng: np.random.Generator, count: int) -> tuple[Lamp, ...]:
+    size = camera.focal_px / PAPER_FOCAL_PX
     return tuple(
-        Lamp(rng.uniform(0, camera.width), rng.uniform(0, camera.height), rng.uniform(0.5, 2.0),
+        Lamp(rng.uniform(0, camera.width), rng.uniform(0, camera.height), size * rng.uniform(0.5, 2.0),
              rng.uniform(0.2, 1.5))
         for _ in range(count)
     )

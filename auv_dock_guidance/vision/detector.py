@@ -30,7 +30,7 @@ import cv2
 import numpy as np
 
 from auv_dock_guidance.errors import ConfigError
-from auv_dock_guidance.geometry.camera import CameraModel
+from auv_dock_guidance.geometry.camera import PAPER_FOCAL_PX, CameraModel
 from auv_dock_guidance.geometry.pose import (
     Ellipse,
     MarkerPose,
@@ -144,9 +144,14 @@ class Detector:
                 detection = None  # lost: search the whole frame
         if detection is None:
             detection = self._detect_in(image, self._search(image))
-        self.threshold.update(detection.radius_px if detection.found else None)
-        self._last = detection if detection.found else None
+        self._remember(detection)
         return detection
+
+    def _remember(self, detection: Detection) -> None:
+        """Carry a frame's outcome to the next: the threshold share (steered by the ring's size
+        as the paper's camera would see it) and the window to track."""
+        self.threshold.update(detection.radius_px / self._lens_scale if detection.found else None)
+        self._last = detection if detection.found else None
 
     def fit_camera(self, width: int, height: int) -> str | None:
         """Follow images that are a uniform resize of the camera model (binned, scaled down
@@ -160,6 +165,12 @@ class Detector:
         self.camera = camera.for_image(width, height)
         return (f"images are {width}x{height}, the camera model {camera.width}x{camera.height}: "
                 f"model scaled by {width / camera.width:.4g}")
+
+    @property
+    def _lens_scale(self) -> float:
+        """Apparent sizes through this camera relative to the paper's, whose 1080p frames the
+        pixel sizes of the defaults (search copy, LED gaps, threshold reference) are for."""
+        return self.camera.focal_px / PAPER_FOCAL_PX if self.camera is not None else 1.0
 
     def _checked(self, image: np.ndarray) -> np.ndarray:
         image = as_bgr_or_gray8(image)
@@ -208,7 +219,8 @@ class Detector:
         glow on structure) that would otherwise make one region of the whole frame.
         """
         c = self.config
-        s = c.search_scale
+        lens = self._lens_scale
+        s = min(1.0, c.search_scale / lens)  # the ring keeps its size in the search copy, whatever the lens
         small = image if s == 1.0 else cv2.resize(image, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
         gray = intensity(small)
         k = c.search_background_px | 1
@@ -226,7 +238,7 @@ class Detector:
         boxes: list[tuple[tuple[int, int, int, int], float]] = []
         low, high = (cv2.threshold(tophat, level, 255, cv2.THRESH_BINARY)[1] for level in (floor, bright))
         for mask, gap_px in [*itertools.product([low], c.search_gaps_px), (high, 0)]:
-            kernel_size = int(round(gap_px * s)) | 1
+            kernel_size = int(round(gap_px * lens * s)) | 1
             grouped = mask if kernel_size <= 1 else cv2.dilate(
                 mask, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (kernel_size, kernel_size))
             )
@@ -270,7 +282,7 @@ class Detector:
         background = float(np.median(border))
         noise = max(0.5, 1.4826 * float(np.median(np.abs(border - background))))
         _, peak, _, _ = cv2.minMaxLoc(cv2.GaussianBlur(smooth, (3, 3), 0))
-        fraction = self.threshold.fraction_for(radius_estimate)
+        fraction = self.threshold.fraction_for(radius_estimate / self._lens_scale)
         level = self.threshold.level(background, peak, noise, fraction)
         if peak <= level:
             rejected.append("too faint")
@@ -731,8 +743,8 @@ class PaperBaseline(Detector):
     def detect(self, image: np.ndarray) -> Detection:
         image = self._checked(image)
         h, w = image.shape[:2]
-        radius = self._last.radius_px if self._last is not None else self.config.threshold.reference_radius_px
+        radius = self._last.radius_px if self._last is not None else \
+            self.config.threshold.reference_radius_px * self._lens_scale
         detection = self._detect_in(image, [((0, 0, w, h), radius)])
-        self.threshold.update(detection.radius_px if detection.found else None)
-        self._last = detection if detection.found else None
+        self._remember(detection)
         return detection

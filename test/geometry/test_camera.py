@@ -5,7 +5,7 @@ import pytest
 import yaml
 
 from auv_dock_guidance.errors import CameraModelError
-from auv_dock_guidance.geometry.camera import CameraModel, paper_camera
+from auv_dock_guidance.geometry.camera import PAPER_FOCAL_PX, CameraModel, paper_camera
 
 CONFIG = Path(__file__).resolve().parents[2] / "config" / "camera_info.yaml"
 
@@ -67,6 +67,10 @@ def test_scaled_camera_keeps_normalized_geometry(camera):
     half = camera.scaled(0.5)
     xy = np.array([[0.1, -0.2], [0.3, 0.1]])
     np.testing.assert_allclose(half.normalized_to_pixels(xy), (camera.normalized_to_pixels(xy) + 0.5) * 0.5 - 0.5)
+
+
+def test_the_reference_focal_length_is_the_papers_camera(camera):
+    assert PAPER_FOCAL_PX == pytest.approx(camera.focal_px)
 
 
 def test_images_resized_from_the_calibrated_size_get_the_scaled_model(camera):

@@ -170,3 +170,16 @@ def test_judge_flags_a_detection_on_the_reflection(camera):
     on_reflection = Detection(found=True, u=truth.reflection_center_px[0], v=truth.reflection_center_px[1])
     outcome = judge(on_reflection, truth, "reflection")
     assert outcome.chose_reflection and not outcome.correct
+
+
+def test_the_threshold_follows_the_range_whatever_the_lens(camera):
+    """A near ring gets the near share through a short lens too (its pixel radius is a third)."""
+    spec = SceneSpec(marker_center_m=(0.1, 0.1, 3.0), brightness=3.0, seed=1)
+    shares = []
+    for lens in (camera, camera.scaled(1 / 3)):
+        detector = Detector(lens)
+        frame, _ = render(lens, spec)
+        for _ in range(8):  # the share moves one step a frame
+            assert detector.detect(frame).found
+        shares.append(detector.threshold.fraction)
+    assert shares[1] == pytest.approx(shares[0], abs=0.02)
