@@ -68,7 +68,8 @@ class BagRecorder:
             self.counts[name] = 0
             self.bytes[name] = 0
             self._subscriptions.append(node.create_subscription(
-                message_class(msgtype), topic, self._writer_for(connection, name, node), listening_qos(topic), raw=True))
+                message_class(msgtype), topic, self._writer_for(connection, name, node), listening_qos(topic),
+                raw=True))
 
     def _writer_for(self, connection, name: str, node: Node):
         def write(data: bytes) -> None:

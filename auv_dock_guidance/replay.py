@@ -68,7 +68,7 @@ class ReplaySummary:
             "bad_frames": self.bad_frames,
             "fps": self.frames / self.seconds if self.seconds > 0 else None,
             "transitions": self.transitions,
-            "command_range_us": [[lo, hi] for lo, hi in zip(self.command_min_us, self.command_max_us)]
+            "command_range_us": [[lo, hi] for lo, hi in zip(self.command_min_us, self.command_max_us, strict=True)]
             if self.frames else None,
             "damage": self.damage,
             "skipped_topics": self.skipped_topics,
@@ -97,7 +97,8 @@ def _camera_info_topics(reader: AnyReader, image_topic: str) -> list:
 
     def shared(topic: str) -> int:
         namespace = topic.strip("/").split("/")[:-1]
-        return next((i for i, (a, b) in enumerate(zip(namespace, image)) if a != b), min(len(namespace), len(image)))
+        differ = (i for i, (a, b) in enumerate(zip(namespace, image, strict=False)) if a != b)
+        return next(differ, min(len(namespace), len(image)))
 
     best = max((shared(c.topic) for c in infos), default=0)
     return [c for c in infos if shared(c.topic) == best]

@@ -23,6 +23,7 @@ from auv_dock_guidance.sim.main_controller import MainControllerSim
 from auv_dock_guidance.sim.vehicle import AuvDynamics
 from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
 
+
 class SimulatedSystem:
     def __init__(self, world: PoolWorld, start: VehiclePose, log_dir: Path, seed: int = 7) -> None:
         self.world = world

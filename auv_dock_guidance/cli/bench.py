@@ -33,7 +33,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--seconds", type=positive_float, default=15.0, help="latency run length (default %(default)s)")
     p.add_argument("--rate", type=positive_float, default=30.0, help="camera rate in Hz (default %(default)s)")
     p.add_argument("--separate-vision", action="store_true", help="camera_ingest and detector as two processes")
-    p.add_argument("--frames", type=positive_int, default=120, help="frames for the detector timings (default %(default)s)")
+    p.add_argument("--frames", type=positive_int, default=120,
+                   help="frames for the detector timings (default %(default)s)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=run)
 
@@ -98,19 +99,20 @@ def detector_bench(count: int) -> dict[str, object]:
         report[f"{name}_ms_p50"] = rounded(float(np.percentile(t, 50)) * 1000, 2)
         report[f"{name}_ms_p95"] = rounded(float(np.percentile(t, 95)) * 1000, 2)
         report[f"{name}_detection_rate"] = rounded(sum(d.found for d in results[name]) / count, 3)
-        errors = [math.hypot(d.u - c[0], d.v - c[1]) for d, (_, c) in zip(results[name], frames) if d.found and c]
+        errors = [math.hypot(d.u - c[0], d.v - c[1])
+                  for d, (_, c) in zip(results[name], frames, strict=True) if d.found and c]
         report[f"{name}_center_error_px_p95"] = rounded(float(np.percentile(errors, 95)), 2) if errors else None
     base = float(np.mean(times["baseline"]))
     report["full_frame_speedup"] = rounded(base / float(np.mean(times["full_frame"])), 2)
     report["tracking_speedup"] = rounded(base / float(np.mean(times["tracking"])), 2)
     # Agreement where the baseline found the marker itself (not a lamp or the reflection).
     on_marker = [b.found and c is not None and math.hypot(b.u - c[0], b.v - c[1]) < max(5.0, 0.5 * b.radius_px)
-                 for b, (_, c) in zip(results["baseline"], frames)]
+                 for b, (_, c) in zip(results["baseline"], frames, strict=True)]
     report["baseline_wrong_object_frames"] = sum(b.found for b in results["baseline"]) - sum(on_marker)
     disagreement = [
         max(math.hypot(d.u - b.u, d.v - b.v), abs(d.radius_px - b.radius_px))
         for name in ("full_frame", "tracking")
-        for d, b, ok in zip(results[name], results["baseline"], on_marker) if ok and d.found
+        for d, b, ok in zip(results[name], results["baseline"], on_marker, strict=True) if ok and d.found
     ]
     report["max_center_disagreement_px"] = rounded(max(disagreement), 3) if disagreement else None
     return report
@@ -195,5 +197,6 @@ def latency_bench(seconds: float, rate_hz: float, combined_vision: bool = True) 
         "latency_ms_p95": rounded(float(np.percentile(ms, 95)), 2) if ms.size else None,
         "latency_ms_max": rounded(float(ms.max()), 2) if ms.size else None,
         "rate_hz": rate_hz,
-        "detector_rss_mb": rounded(vision_rss, 1),  # the detector's process after the run (with camera_ingest if combined)
+        # the detector's process after the run (with camera_ingest when they share one)
+        "detector_rss_mb": rounded(vision_rss, 1),
     }

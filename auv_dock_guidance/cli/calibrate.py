@@ -81,7 +81,8 @@ def run_calibrate(args: argparse.Namespace) -> int:
     if args.json:
         print_json(report)
         return 0
-    print(f"calibrated from {len(result.used)} of {len(args.images)} images, RMS reprojection error {result.rms_px:.3f} px")
+    print(f"calibrated from {len(result.used)} of {len(args.images)} images, "
+          f"RMS reprojection error {result.rms_px:.3f} px")
     print(f"  fx {cam.fx:.2f} +- {result.std_fx:.2f}   fy {cam.fy:.2f} +- {result.std_fy:.2f}")
     print(f"  cx {cam.cx:.2f} +- {result.std_cx:.2f}   cy {cam.cy:.2f} +- {result.std_cy:.2f}")
     print("  distortion k1 k2 p1 p2 k3: " + " ".join(f"{x:+.4f}" for x in cam.distortion))

@@ -113,7 +113,8 @@ def run(args: argparse.Namespace) -> int:
     }
     (report / "summary.json").write_text(json.dumps(summary, indent=2))
     if outcome == "docked":
-        print(f"docked in {duration:.1f} s (entry {100 * lateral:.1f} cm off centre, heading {heading:.1f} deg off the axis)")
+        print(f"docked in {duration:.1f} s (entry {100 * lateral:.1f} cm off centre, "
+              f"heading {heading:.1f} deg off the axis)")
     else:
         print(f"not docked: {outcome} after {duration:.1f} s")
     print(f"report: {report}/summary.json, {', '.join(p.name for p in plots)}, debug_bag/ (MCAP)")

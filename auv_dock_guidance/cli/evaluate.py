@@ -95,7 +95,8 @@ def _print_summary(r: dict[str, object]) -> None:
     print(f"false positives        {r['false_positives']} of {r['empty_frames']} empty frames")
     print(f"reflection chosen      {r['reflection_chosen']} of {r['reflection_frames']} frames with a reflection")
     print(f"wrong object chosen    {r['wrong_object']}")
-    print(f"centre error           p50 {_num(r['center_error_px_p50'], ' px')}, p95 {_num(r['center_error_px_p95'], ' px')}")
+    print(f"centre error           p50 {_num(r['center_error_px_p50'], ' px')}, "
+          f"p95 {_num(r['center_error_px_p95'], ' px')}")
     print(f"range error            p50 {_num(r['range_error_rel_p50'], ' %', 100)}, "
           f"p95 {_num(r['range_error_rel_p95'], ' %', 100)}")
     print(f"yaw error              p50 {_num(r['yaw_error_deg_p50'], ' deg', digits=3)}, "

@@ -19,7 +19,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         description="Send thruster commands at 30 Hz through the real bridge and protocol to the "
         "simulated main controller, then stop and time the failsafe.",
     )
-    s.add_argument("--seconds", type=positive_float, default=3.0, help="how long to send commands (default %(default)s)")
+    s.add_argument("--seconds", type=positive_float, default=3.0,
+                   help="how long to send commands (default %(default)s)")
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.set_defaults(run=run_selftest_command)
 
@@ -29,7 +30,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         description="Open a pseudo-terminal, speak the main-controller protocol on it, apply "
         "received PWM to a simple vehicle model and send telemetry.",
     )
-    m.add_argument("--port", metavar="PATH", help="the symbolic link to the pseudo-terminal the bridge opens (default: a temporary one)")
+    m.add_argument("--port", metavar="PATH",
+                   help="the symbolic link to the pseudo-terminal the bridge opens (default: a temporary one)")
     m.add_argument("--telemetry-hz", type=positive_float, default=50.0, help="telemetry rate (default %(default)s)")
     m.set_defaults(run=run_mock_controller)
 

@@ -36,7 +36,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     config = EpisodeConfig(scenario=args.scenario, tracker=args.tracker, axis_alignment=args.axis_alignment,
                            current_mps=args.current, camera_hz=args.camera_hz)
-    results = run_many(config, args.episodes, args.seed, args.workers, Progress(f"simulate {args.scenario}", args.episodes))
+    progress = Progress(f"simulate {args.scenario}", args.episodes)
+    results = run_many(config, args.episodes, args.seed, args.workers, progress)
     report = summarize(results)
     report.update(scenario=args.scenario, tracker=args.tracker, axis_alignment=args.axis_alignment, seed=args.seed)
     if args.plots:

@@ -167,7 +167,7 @@ def run(args: argparse.Namespace) -> int:
     late = [o.late for o in outcomes if o.late]
     wrong = [o.wrong for o in outcomes if o.wrong]
     worst_ms: dict[str, float] = {}
-    for name, outcome in zip(injected, outcomes):
+    for name, outcome in zip(injected, outcomes, strict=True):
         if outcome.reaction_ms is not None:
             worst_ms[name] = max(outcome.reaction_ms, worst_ms.get(name, 0.0))
     report = {

@@ -74,7 +74,8 @@ class CascadeConfig:
     full_thrust_speed_mps: float = 1.0  # steady speed at full surge thrust
 
     def __post_init__(self) -> None:
-        positive = (self.setpoint_rate_rad_s, self.max_pitch_setpoint_rad, self.full_thrust_speed_mps, self.slow_down_range_m)
+        positive = (self.setpoint_rate_rad_s, self.max_pitch_setpoint_rad, self.full_thrust_speed_mps,
+                    self.slow_down_range_m)
         if not all(math.isfinite(v) and v > 0 for v in positive):
             raise ConfigError("setpoint rate, pitch limit, full-thrust speed and slow-down range must be positive")
         if not 0 <= self.terminal_speed_mps <= self.cruise_speed_mps <= self.full_thrust_speed_mps:
@@ -158,7 +159,8 @@ class CascadeController:
             )
         self._last_time = now_s
         yaw_sp, pitch_sp = self._setpoint
-        yaw_moment = self._inner_yaw.update(yaw_sp, attitude.yaw_rad, now_s, error=wrap_angle(yaw_sp - attitude.yaw_rad))
+        yaw_error = wrap_angle(yaw_sp - attitude.yaw_rad)
+        yaw_moment = self._inner_yaw.update(yaw_sp, attitude.yaw_rad, now_s, error=yaw_error)
         pitch_moment = self._inner_pitch.update(pitch_sp, attitude.pitch_rad, now_s)
         surge = (max(0.0, speed_mps) / c.full_thrust_speed_mps) ** 2  # drag grows with speed squared
         return Demands(surge, yaw_moment, pitch_moment, yaw_sp, pitch_sp, speed_mps)

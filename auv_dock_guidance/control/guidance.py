@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from enum import Enum
+from enum import StrEnum
 
 from auv_dock_guidance.control.cascade import Attitude, CascadeConfig, CascadeController, Demands, Target
 from auv_dock_guidance.control.mixer import Mixer, MixerConfig, ThrusterCommand
@@ -48,7 +48,7 @@ from auv_dock_guidance.errors import ConfigError
 from auv_dock_guidance.stamps import StampGate
 
 
-class State(str, Enum):
+class State(StrEnum):
     SEARCH = "SEARCH"
     TRACK = "TRACK"
     TERMINAL = "TERMINAL"
@@ -178,7 +178,8 @@ class Guidance:
         last = self._last_target
         if last is None:
             return True
-        jump = max(abs(target.bearing_yaw_rad - last.bearing_yaw_rad), abs(target.bearing_pitch_rad - last.bearing_pitch_rad))
+        jump = max(abs(target.bearing_yaw_rad - last.bearing_yaw_rad),
+                   abs(target.bearing_pitch_rad - last.bearing_pitch_rad))
         return jump <= c.terminal_max_bearing_jump_rad
 
     def marker_missed(self) -> None:
@@ -218,7 +219,8 @@ class Guidance:
                 self._last_frame_s = now_s
         if target is not None and self.state is State.TERMINAL and not self._plausible_in_terminal(target):
             target = None  # seen, but a partial ring: hold the last good goal
-        if attitude is not None and (not attitude.is_valid() or not _fresh(now_s, attitude.stamp_s, c.telemetry_timeout_s)):
+        if attitude is not None and (
+                not attitude.is_valid() or not _fresh(now_s, attitude.stamp_s, c.telemetry_timeout_s)):
             attitude = None
         transition = self._next_state(now_s, target, attitude, docked_signal)
         if self.state in (State.ABORT, State.DOCKED) or attitude is None or self._camera_silent(now_s):

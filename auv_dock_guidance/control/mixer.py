@@ -64,7 +64,8 @@ class MixerConfig:
     def __post_init__(self) -> None:
         matrix = np.asarray(self.allocation, dtype=float)
         if matrix.shape != (4, 3) or not np.all(np.isfinite(matrix)):
-            raise ConfigError(f"allocation must be 4 rows (thrusters) x 3 columns (surge, yaw, pitch), got {matrix.shape}")
+            raise ConfigError(
+                f"allocation must be 4 rows (thrusters) x 3 columns (surge, yaw, pitch), got {matrix.shape}")
         if np.any(np.abs(matrix) > 1.0):
             raise ConfigError("allocation entries must be within [-1, 1]")
         if len(self.names) != 4:
@@ -123,7 +124,7 @@ class Mixer:
 
     def _surge_within_headroom(self, attitude: np.ndarray, surge: float) -> float:
         low, high = -math.inf, math.inf
-        for a, b in zip(attitude, self._matrix[:, 0]):
+        for a, b in zip(attitude, self._matrix[:, 0], strict=True):
             if b > 0:
                 low, high = max(low, (-1 - a) / b), min(high, (1 - a) / b)
             elif b < 0:

@@ -26,7 +26,8 @@ class PidGains:
     max_dt_s: float = 0.5  # longer gaps count as this (a stall must not kick the integrator)
 
     def __post_init__(self) -> None:
-        values = (self.kp, self.ki, self.kd, self.output_limit, self.derivative_tau_s, self.tracking_time_s, self.max_dt_s)
+        values = (self.kp, self.ki, self.kd, self.output_limit, self.derivative_tau_s, self.tracking_time_s,
+                  self.max_dt_s)
         if not all(math.isfinite(v) for v in values):
             raise ConfigError(f"PID gains must be finite numbers, got {values}")
         if min(self.kp, self.ki, self.kd) < 0:

@@ -143,7 +143,7 @@ def calibrate(
     return CalibrationResult(
         camera=camera,
         rms_px=float(solution["rms"]),
-        used=[ViewResult(n, float(e)) for (n, _), e in zip(found, errors)],
+        used=[ViewResult(n, float(e)) for (n, _), e in zip(found, errors, strict=True)],
         rejected=rejected,
         std_fx=float(std[0]),
         std_fy=float(std[1]),
@@ -159,7 +159,7 @@ def _solve(found: list[tuple[str, np.ndarray]], board: Board, size: tuple[int, i
     object_points = [board.object_points() for _ in found]
     image_points = [c for _, c in found]
     flags = cv2.CALIB_FIX_TANGENT_DIST if fix_tangential else 0
-    rms, k, d, rvecs, tvecs, std_intrinsics, _, per_view = cv2.calibrateCameraExtended(
+    rms, k, d, _, _, std_intrinsics, _, per_view = cv2.calibrateCameraExtended(
         object_points, image_points, size, None, None, flags=flags
     )
     return {

@@ -15,7 +15,6 @@ import math
 import struct
 from dataclasses import dataclass
 from enum import IntEnum
-from typing import Union
 
 START = b"\xa5\x5a"
 VERSION = 1
@@ -126,7 +125,7 @@ class TelemetryMsg:
                                               self.roll_rate, self.pitch_rate, self.yaw_rate))
 
 
-Message = Union[ThrusterCommandMsg, HeartbeatMsg, ArmMsg, TelemetryMsg]
+Message = ThrusterCommandMsg | HeartbeatMsg | ArmMsg | TelemetryMsg
 MESSAGE_TYPES: dict[MsgId, type] = {
     MsgId.THRUSTER_COMMAND: ThrusterCommandMsg,
     MsgId.HEARTBEAT: HeartbeatMsg,

@@ -66,7 +66,8 @@ class SerialTransport:
             self.stats.open_failures += 1
             self._next_attempt = now + self._backoff
             if self.stats.open_failures == 1 or self._backoff >= self._backoff_max:
-                log.warning("serial port %s unavailable (%s); retrying every <= %.1f s", self.port, exc, self._backoff_max)
+                log.warning("serial port %s unavailable (%s); retrying every <= %.1f s",
+                            self.port, exc, self._backoff_max)
             self._backoff = min(self._backoff * 2.0, self._backoff_max)
             return False
         self.stats.opens += 1

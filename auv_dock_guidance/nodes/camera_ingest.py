@@ -23,7 +23,14 @@ from sensor_msgs.msg import CameraInfo, Image
 
 from auv_dock_guidance.errors import ConfigError, DockGuidanceError
 from auv_dock_guidance.geometry.camera import CameraModel, paper_camera
-from auv_dock_guidance.nodes.common import InputProblems, Param, declare, diagnostic_status, publish_diagnostics, run_node
+from auv_dock_guidance.nodes.common import (
+    InputProblems,
+    Param,
+    declare,
+    diagnostic_status,
+    publish_diagnostics,
+    run_node,
+)
 from auv_dock_guidance.nodes.conversions import array_to_image, camera_to_info, pose_to_vehicle, seconds_stamp
 from auv_dock_guidance.sim.scene import render
 from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
@@ -40,7 +47,8 @@ PARAMS = [
     Param("camera_info_file", "", "camera_info YAML (empty: the paper's calibration)", read_only=True),
     Param("sim_scale", 0.5, "sim source: render at this share of the camera resolution", 0.1, 1.0, read_only=True),
     Param("sim_reflection", False, "sim source: the surface reflects the ring", read_only=True),
-    Param("reliable", True, "reliable image QoS (with the shared-memory profile) instead of best effort", read_only=True),
+    Param("reliable", True, "reliable image QoS (with the shared-memory profile) instead of best effort",
+          read_only=True),
     Param("stall_timeout_s", 1.0, "no frame from the source this long is reported as a stall (s)", 0.1, 60.0),
 ]
 
@@ -49,7 +57,8 @@ class CameraIngestNode(Node):
     def __init__(self) -> None:
         super().__init__("camera_ingest")
         self.values = declare(self, PARAMS)
-        base = CameraModel.from_yaml(self.values["camera_info_file"]) if self.values["camera_info_file"] else paper_camera()
+        info_file = self.values["camera_info_file"]
+        base = CameraModel.from_yaml(info_file) if info_file else paper_camera()
         source = self.values["source"]
         self.camera = base.scaled(self.values["sim_scale"]) if source == "sim" else base
         reliability = ReliabilityPolicy.RELIABLE if self.values["reliable"] else ReliabilityPolicy.BEST_EFFORT

@@ -20,7 +20,6 @@ from rclpy.qos import DurabilityPolicy, QoSProfile
 
 from auv_dock_guidance.errors import DockGuidanceError
 
-
 # guidance/transition is latched: whoever subscribes late (a shore laptop, a recorder) still
 # gets the recent transitions, with the reason for the state the vehicle is in.
 TRANSITION_QOS = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)

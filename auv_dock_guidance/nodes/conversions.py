@@ -15,6 +15,7 @@ from auv_dock_guidance.geometry.rotations import navigation_attitude, rep103_qua
 from auv_dock_guidance.sim.world import VehiclePose
 from auv_dock_guidance.vision.image_input import image_from_fields
 
+
 def stamp_seconds(stamp: TimeMsg) -> float:
     return stamp.sec + stamp.nanosec * 1e-9
 

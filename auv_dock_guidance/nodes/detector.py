@@ -46,7 +46,8 @@ PARAMS = [
     Param("marker_radius_m", 0.35, "radius of the LED ring's centre line (m)", 0.01, 5.0),
     Param("max_range_m", 40.0, "rings that look smaller than at this range are rejected (m)", 1.0, 200.0),
     Param("camera_info_file", "", "camera_info YAML; empty: use the camera_info topic"),
-    Param("reliable", True, "reliable image QoS (with the shared-memory profile) instead of best effort", read_only=True),
+    Param("reliable", True, "reliable image QoS (with the shared-memory profile) instead of best effort",
+          read_only=True),
     Param("debug_image_rate_hz", 2.0, "debug overlay rate (0 = off)", 0.0, 30.0),
     Param("debug_image_scale", 0.25, "debug overlay size relative to the frame", 0.05, 1.0),
     Param("debug_jpeg_quality", 60, "debug overlay JPEG quality", 10, 100),
@@ -62,7 +63,8 @@ PARAMS = [
 
 def detector_config(values: dict[str, Any]) -> DetectorConfig:
     """Raises ConfigError with a reason when the combination is invalid."""
-    threshold = ThresholdConfig(**{k.split(".", 1)[1]: float(v) for k, v in values.items() if k.startswith("threshold.")})
+    threshold = ThresholdConfig(
+        **{k.split(".", 1)[1]: float(v) for k, v in values.items() if k.startswith("threshold.")})
     selection = SelectionConfig(tie_ratio=float(values["selection.tie_ratio"]))
     return DetectorConfig(
         marker_radius_m=float(values["marker_radius_m"]),
@@ -172,7 +174,8 @@ class DetectorNode(Node):
         text = (f"{'FOUND' if detection.found else 'SEARCH'} thr {detection.threshold:.0f} "
                 f"share {share if share is not None else float('nan'):.2f}")
         if detection.pose is not None:
-            text += f" r {detection.pose.range_m:.1f}m yaw {detection.pose.yaw_deg:+.1f} pitch {detection.pose.pitch_deg:+.1f}"
+            pose = detection.pose
+            text += f" r {pose.range_m:.1f}m yaw {pose.yaw_deg:+.1f} pitch {pose.pitch_deg:+.1f}"
         out = CompressedImage()
         out.header = msg.header
         out.format = "jpeg"

@@ -199,7 +199,8 @@ class GuidanceNode(Node):
             d = out.demands
             setpoint = Vector3Stamped()
             setpoint.header.stamp = stamp
-            setpoint.vector.x, setpoint.vector.y, setpoint.vector.z = d.yaw_setpoint_rad, d.pitch_setpoint_rad, d.speed_setpoint_mps
+            setpoint.vector.x, setpoint.vector.y = d.yaw_setpoint_rad, d.pitch_setpoint_rad
+            setpoint.vector.z = d.speed_setpoint_mps
             self.setpoint_pub.publish(setpoint)
             demands = Vector3Stamped()
             demands.header.stamp = stamp

@@ -183,13 +183,15 @@ class SerialBridgeNode(Node):
             return
         for frame in self.bridge.tick():
             if isinstance(frame.message, TelemetryMsg) and not frame.message.is_finite():
-                self.problems.report("telemetry", f"non-finite attitude or depth from the main controller: {frame.message}")
+                self.problems.report("telemetry",
+                                     f"non-finite attitude or depth from the main controller: {frame.message}")
         self._report_garbage()
         if self.transport.connected != self._connected:
             self._connected = self.transport.connected
             self.get_logger().info(f"serial port {self.transport.port} {'open' if self._connected else 'lost'}")
         telemetry = self.bridge.telemetry
-        if telemetry is not None and self.bridge.telemetry_time is not None and telemetry.time_ms != self._last_telemetry_seq:
+        received = self.bridge.telemetry_time is not None and telemetry is not None
+        if received and telemetry.time_ms != self._last_telemetry_seq:
             self._last_telemetry_seq = telemetry.time_ms
             self._publish_telemetry(telemetry)
 
@@ -209,14 +211,16 @@ class SerialBridgeNode(Node):
         state = self.mavlink.feed(self.transport.read())
         if math.isfinite(state.yaw):
             now = time.time()
-            attitude = Attitude(now, state.roll, state.pitch, state.yaw, state.depth if math.isfinite(state.depth) else 0.0)
+            depth = state.depth if math.isfinite(state.depth) else 0.0
+            attitude = Attitude(now, state.roll, state.pitch, state.yaw, depth)
             self.imu_pub.publish(attitude_to_imu(attitude, (state.roll_rate, state.pitch_rate, state.yaw_rate),
                                                  self.values["imu_frame_id"]))
 
     def _publish_telemetry(self, t: TelemetryMsg) -> None:
         now = time.time()
         attitude = Attitude(now, t.roll, t.pitch, t.yaw, t.depth)
-        self.imu_pub.publish(attitude_to_imu(attitude, (t.roll_rate, t.pitch_rate, t.yaw_rate), self.values["imu_frame_id"]))
+        rates = (t.roll_rate, t.pitch_rate, t.yaw_rate)
+        self.imu_pub.publish(attitude_to_imu(attitude, rates, self.values["imu_frame_id"]))
         self.depth_pub.publish(Float64(data=float(t.depth)))
         self.armed_pub.publish(Bool(data=bool(t.status & Status.ARMED)))
         self.docked_pub.publish(Bool(data=bool(t.status & Status.DOCKED)))

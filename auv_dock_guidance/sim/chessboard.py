@@ -53,7 +53,7 @@ def render_board(
     ``rotation`` (3x3) takes board coordinates (x along columns, y along rows) to the camera frame.
     """
     xy, valid = _rays(camera)
-    rays = np.concatenate([xy, np.ones(xy.shape[:-1] + (1,))], axis=-1)
+    rays = np.concatenate([xy, np.ones((*xy.shape[:-1], 1))], axis=-1)
     normal = rotation[:, 2]
     depth = (translation @ normal) / (rays @ normal)
     points = rays * depth[..., None] - translation

@@ -20,9 +20,9 @@ import numpy as np
 
 from auv_dock_guidance.control.cascade import Attitude, Target
 from auv_dock_guidance.control.guidance import Guidance, GuidanceConfig, State
+from auv_dock_guidance.control.tracker import TargetTracker
 from auv_dock_guidance.geometry.camera import CameraModel, paper_camera
 from auv_dock_guidance.sim.scene import SceneSpec, render
-from auv_dock_guidance.control.tracker import TargetTracker
 from auv_dock_guidance.sim.vehicle import AuvDynamics
 from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
 from auv_dock_guidance.vision.detector import Detector, DetectorConfig

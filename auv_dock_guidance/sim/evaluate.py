@@ -40,7 +40,8 @@ def judge(detection: Detection, truth: GroundTruth, kind: str) -> FrameOutcome:
     error = math.hypot(detection.u - truth.center_px[0], detection.v - truth.center_px[1])
     on_reflection = False
     if truth.reflection_center_px is not None:
-        to_reflection = math.hypot(detection.u - truth.reflection_center_px[0], detection.v - truth.reflection_center_px[1])
+        ru, rv = truth.reflection_center_px
+        to_reflection = math.hypot(detection.u - ru, detection.v - rv)
         on_reflection = to_reflection < error
     correct = not on_reflection and error < max(5.0, 0.5 * (truth.radius_px or 0.0))
     pose = detection.pose
@@ -201,7 +202,8 @@ def edge_comparison(camera: CameraModel, frames: int, seed: int, scale: float = 
     rng = np.random.default_rng(seed)
     totals = {"traditional": [0.0, 0.0], "improved": [0.0, 0.0]}
     for _ in range(frames):
-        spec = random_scene(small_camera, rng, ScenarioMix(real_world=False), range_m=rng.uniform(3.0, 10.0), kind="plain")
+        spec = random_scene(small_camera, rng, ScenarioMix(real_world=False), range_m=rng.uniform(3.0, 10.0),
+                            kind="plain")
         spec = replace(spec, read_noise=rng.uniform(6.0, 12.0), shot_noise=rng.uniform(1.0, 2.0), led_count=0)
         noisy, _ = render(small_camera, spec)
         clean, _ = render(small_camera, replace(spec, read_noise=0.0, shot_noise=0.0))

@@ -51,7 +51,8 @@ def make_fixture(path: Path, frames: int = 30, rate_hz: float = 10.0, jpeg_quali
             raise DockGuidanceError("JPEG encoding failed")
         msg = t["sensor_msgs/msg/CompressedImage"](header=header, format="jpeg", data=jpeg.ravel())
         writer.write(image_conn, stamp_ns, ts.serialize_cdr(msg, "sensor_msgs/msg/CompressedImage"))
-        writer.write(info_conn, stamp_ns, ts.serialize_cdr(_camera_info(t, header, camera), "sensor_msgs/msg/CameraInfo"))
+        info = ts.serialize_cdr(_camera_info(t, header, camera), "sensor_msgs/msg/CameraInfo")
+        writer.write(info_conn, stamp_ns, info)
         writer.write(imu_conn, stamp_ns, ts.serialize_cdr(_imu(t, header, math.radians(1.0) * math.sin(i / 5)),
                                                         "sensor_msgs/msg/Imu"))
     writer.close()

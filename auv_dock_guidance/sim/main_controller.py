@@ -67,8 +67,8 @@ class SimpleVehicle:
 
     def step(self, pwm_us: tuple[int, int, int, int], dt: float) -> VehicleState:
         thrust = [(p - 1500) / 400.0 for p in pwm_us]
-        yaw_demand = sum(t * row[1] for t, row in zip(thrust, DEFAULT_ALLOCATION)) / 4.0
-        pitch_demand = sum(t * row[2] for t, row in zip(thrust, DEFAULT_ALLOCATION)) / 4.0
+        yaw_demand = sum(t * row[1] for t, row in zip(thrust, DEFAULT_ALLOCATION, strict=True)) / 4.0
+        pitch_demand = sum(t * row[2] for t, row in zip(thrust, DEFAULT_ALLOCATION, strict=True)) / 4.0
         s = self.state
         s.yaw_rate += dt * (self.yaw_gain * yaw_demand - self.damping * s.yaw_rate)
         s.pitch_rate += dt * (self.pitch_gain * pitch_demand - self.damping * s.pitch_rate - self.restoring * s.pitch)

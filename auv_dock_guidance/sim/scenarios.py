@@ -133,7 +133,7 @@ def _with_reflection(camera: CameraModel, rng: np.random.Generator, spec: SceneS
     mirrored centre's image row fixes h.
     """
     assert spec.marker_center_m is not None
-    x, y, z = spec.marker_center_m
+    _, y, z = spec.marker_center_m
     r_px = camera.fy * spec.marker_radius_m / z
     v_marker = camera.fy * y / z + camera.cy
     if rng.uniform() < 0.3:

@@ -217,7 +217,7 @@ def _draw_ring(
     if spec.funnel_glow > 0 and valid.all():
         _draw_funnel_glow(light, pix, radiance * spec.funnel_glow)
     if spec.led_count > 0:
-        for (u, v), ok, factor in zip(pix, valid, leds):
+        for (u, v), ok, factor in zip(pix, valid, leds, strict=True):
             if ok and factor > 0:
                 _draw_disc(light, u, v, max(0.7, width_px * 0.6), factor * radiance * min(1.0, width_px))
         return

@@ -83,7 +83,7 @@ class AuvDynamics:
             offset = pulse - p.pwm_neutral_us
             if abs(offset) <= p.deadband_us:
                 continue
-            span = (p.pwm_max_us if offset > 0 else p.pwm_neutral_us) - (p.pwm_neutral_us if offset > 0 else p.pwm_min_us)
+            span = p.pwm_max_us - p.pwm_neutral_us if offset > 0 else p.pwm_neutral_us - p.pwm_min_us
             share = (abs(offset) - p.deadband_us) / (span - p.deadband_us)
             out[i] = math.copysign(min(1.0, share), offset) * self.params.max_thrust_n
         return out
@@ -110,7 +110,8 @@ class AuvDynamics:
         du = (surge - _drag(p.damping_surge, u)) / (m + p.added_mass_surge)
         dv = (-_drag(p.damping_sway, v) - m * u * r) / (m + p.added_mass_sway)
         dw = (-_drag(p.damping_heave, w) - m * u * q) / (m + p.added_mass_heave)
-        dq = (pitch_moment - _drag(p.damping_pitch, q) - p.restoring_pitch * math.sin(self.pose.pitch)) / p.inertia_pitch
+        restoring = p.restoring_pitch * math.sin(self.pose.pitch)
+        dq = (pitch_moment - _drag(p.damping_pitch, q) - restoring) / p.inertia_pitch
         dr = (yaw_moment - _drag(p.damping_yaw, r)) / p.inertia_yaw
         self.velocity += h * np.array([du, dv, dw])
         self.rates += h * np.array([dq, dr])

@@ -296,7 +296,8 @@ class Detector:
         wide = max(5, int(0.2 * radius_estimate * scale)) | 1
         regions: list[_Region] = []
         for close in (3, wide) if wide > 3 else (3,):
-            closed = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (close, close)))
+            kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (close, close))
+            closed = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, kernel)
             found = self._regions(closed, near_edge, smooth, background, image.shape[:2], scale, (x0, y0), level,
                                   rejected)
             if any(is_ring(r.shape, c.selection) for r in found) or not regions:
@@ -431,7 +432,8 @@ class Detector:
             normal = None
         else:
             pose = pose_from_point(solution[0])
-            normal = None if solution[1] is None else (float(solution[1][0]), float(solution[1][1]), float(solution[1][2]))
+            axis = solution[1]
+            normal = None if axis is None else (float(axis[0]), float(axis[1]), float(axis[2]))
         x, y = pose.offset_x_m / pose.range_m, pose.offset_y_m / pose.range_m
         u, v, focal = self._center_pixels(x, y)
         return Detection(
@@ -458,7 +460,8 @@ class Detector:
             return 0.0
         ellipse = Ellipse(cx, cy, max(d1, d2) / 2.0, min(d1, d2) / 2.0,
                           math.radians(angle) if d1 >= d2 else math.radians(angle + 90.0))
-        residual = _radial_residual(ellipse, points.astype(np.float64)) / math.sqrt(ellipse.semi_major * ellipse.semi_minor)
+        size = math.sqrt(ellipse.semi_major * ellipse.semi_minor)
+        residual = _radial_residual(ellipse, points.astype(np.float64)) / size
         return float(np.sqrt(np.mean(residual * residual)))
 
     def _led_points(self, region: _Region) -> np.ndarray | None:
@@ -532,7 +535,8 @@ def _same_region(a: _Region, b: _Region) -> bool:
     return float(np.hypot(*(ca - cb))) < 0.3 * max(a.shape.radius_px, b.shape.radius_px)
 
 
-def _covered(box: tuple[int, int, int, int], radius: float, boxes: list[tuple[tuple[int, int, int, int], float]]) -> bool:
+def _covered(box: tuple[int, int, int, int], radius: float,
+             boxes: list[tuple[tuple[int, int, int, int], float]]) -> bool:
     """A window adds nothing when another nearly the same, or one at most twice as large that
     contains it, is already refined."""
     return any(
@@ -648,7 +652,7 @@ def _dot_ring(dots: list[_Dot], min_dots: int) -> _SegmentRing | None:
         xr = (rel[:, 0] * math.cos(t) + rel[:, 1] * math.sin(t)) / (d1 / 2)
         yr = (-rel[:, 0] * math.sin(t) + rel[:, 1] * math.cos(t)) / (d2 / 2)
         residual = np.abs(np.hypot(xr, yr) - 1.0)
-        keep = [m for m, r in zip(members, residual) if r < 0.15]
+        keep = [m for m, r in zip(members, residual, strict=True) if r < 0.15]
         rms = float(np.sqrt(np.mean(residual[residual < 0.15] ** 2))) if keep else 1.0
         if len(keep) == len(members):
             break
@@ -694,7 +698,8 @@ def _arc_ring(dots: list[_Dot], min_coverage: float = 0.6) -> _SegmentRing | Non
         return None
     return _SegmentRing(
         members=tuple(range(len(dots))), outline=points.astype(np.int32), led_centers=None,
-        edge_support=float(np.mean([d[2] for d in dots])), area=ellipse_area, axis_ratio=min(d1, d2) / max(d1, d2), center_row=float(cy), residual=float(np.std(offset)),
+        edge_support=float(np.mean([d[2] for d in dots])), area=ellipse_area, axis_ratio=min(d1, d2) / max(d1, d2),
+        center_row=float(cy), residual=float(np.std(offset)),
     )
 
 

@@ -82,7 +82,9 @@ def _encodings() -> dict[str, _Layout]:
 ENCODINGS = _encodings()
 
 
-def image_from_fields(height: int, width: int, encoding: str, step: int, data: Any, is_bigendian: bool = False) -> np.ndarray:
+def image_from_fields(
+    height: int, width: int, encoding: str, step: int, data: Any, is_bigendian: bool = False
+) -> np.ndarray:
     """The 8-bit BGR or mono image in the fields of a sensor_msgs/Image.
 
     bgr8 and mono8 come back as zero-copy views; RGB is reordered, Bayer demosaiced, YUV

@@ -114,7 +114,7 @@ def test_search_without_telemetry_waits_with_neutral_thrust_instead_of_aborting(
 def test_control_ticks_between_frames_do_not_break_the_confirmation():
     g = Guidance()
     t = 0.0
-    for frame in range(4):
+    for _ in range(4):
         g.update(t, target(t), level(t))
         for _ in range(4):  # 50 Hz ticks between 10 Hz frames
             t += 0.02

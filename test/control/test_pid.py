@@ -35,7 +35,7 @@ def test_back_calculation_stops_windup():
     for i in range(5000):  # 100 s saturated against an unreachable setpoint
         pid.update(10.0, 0.0, i * 0.02)
     t = 100.0
-    for step in range(50):  # error flips sign: output must follow within a second
+    for _ in range(50):  # error flips sign: output must follow within a second
         t += 0.02
         out = pid.update(-1.0, 0.0, t)
     assert out < 0

@@ -79,7 +79,7 @@ def test_images_resized_from_the_calibrated_size_get_the_scaled_model(camera):
     assert (half.width, half.height) == (960, 540) and half.fx == pytest.approx(camera.fx / 2)
     third = camera.for_image(640, 360)  # 1080 / 3 rounds exactly; the model keeps the images' size
     assert (third.width, third.height) == (640, 360) and third.cy == pytest.approx((camera.cy + 0.5) / 3 - 0.5)
-    with pytest.raises(CameraModelError, match="640x480 .* not a uniform resize"):
+    with pytest.raises(CameraModelError, match=r"640x480 .* not a uniform resize"):
         camera.for_image(640, 480)  # a crop or another camera: never guessed
 
 

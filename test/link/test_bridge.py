@@ -1,3 +1,4 @@
+import itertools
 import math
 import time
 
@@ -153,8 +154,8 @@ def test_transport_reconnects_with_back_off_after_unplug():
     for _ in range(40):
         clock[0] += 0.05
         transport.write(b"c")
-    gaps = [b - a for a, b in zip(attempts[1:], attempts[2:])]
-    assert all(later >= earlier for earlier, later in zip(gaps, gaps[1:]))  # back-off grows
+    gaps = [b - a for a, b in itertools.pairwise(attempts[1:])]
+    assert all(later >= earlier for earlier, later in itertools.pairwise(gaps))  # back-off grows
     port.plugged = True
     clock[0] += 5.0
     assert transport.write(b"d") and transport.connected

@@ -2,9 +2,9 @@ import pytest
 
 pytest.importorskip("pymavlink")
 
-from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from auv_dock_guidance.link.mavlink import MavlinkCodec  # noqa: E402
+from auv_dock_guidance.link.mavlink import MavlinkCodec
 
 
 def test_rc_override_carries_the_demands_on_ardusub_channels():

@@ -50,7 +50,8 @@ def spin_until(executor: SingleThreadedExecutor, done: Callable[[], bool], timeo
 def test_detector_refuses_bad_frames_and_camera_info_and_keeps_detecting(ros, capfd):
     detector = DetectorNode()
     harness, executor = beside(detector)
-    images = harness.create_publisher(Image, "camera/image_raw", QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE))
+    newest = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
+    images = harness.create_publisher(Image, "camera/image_raw", newest)
     infos = harness.create_publisher(CameraInfo, "camera/camera_info", 1)
     detected: list[Bool] = []
     harness.create_subscription(Bool, "dock/detected", detected.append, 10)
@@ -188,6 +189,7 @@ def test_bridge_refuses_line_garbage_and_bad_telemetry_and_keeps_the_link(contro
     assert all(math.isfinite(m.orientation.x) and math.isfinite(m.orientation.w) for m in imu)
     assert bridge.bridge.decoder.stats.bytes_dropped > 0
     log = capfd.readouterr().err
-    for expected in ("serial_bytes: garbage on", "telemetry: non-finite attitude", "command: thruster command with 3 values"):
+    for expected in ("serial_bytes: garbage on", "telemetry: non-finite attitude",
+                     "command: thruster command with 3 values"):
         assert expected in log
     assert status.level == DiagnosticStatus.WARN and "refusing input: command" in status.message

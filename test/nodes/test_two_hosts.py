@@ -96,6 +96,7 @@ def test_shore_sees_the_run_and_cannot_drive_the_thrusters(two_hosts, domain_id,
     assert monitor.returncode == 0, monitor.stderr
     assert "TRACK" in monitor.stdout and "live" in monitor.stdout, monitor.stdout
     assert rogue.returncode == 0, rogue.stderr
-    assert all(r.pwm_us != (1900, 1900, 1900, 1900) for r in controller.records()), "a shore command drove the thrusters"
+    shore_command = (1900, 1900, 1900, 1900)
+    assert all(r.pwm_us != shore_command for r in controller.records()), "a shore command drove the thrusters"
     assert "foreign" in logs["serial_bridge.log"], logs["serial_bridge.log"]
     assert all(code == 0 for code in codes.values()), (codes, logs)

@@ -1,8 +1,8 @@
 import time
 
 import rclpy
-from std_msgs.msg import String
 from rosbags.highlevel import AnyReader
+from std_msgs.msg import String
 
 from auv_dock_guidance.nodes.common import TRANSITION_QOS
 from auv_dock_guidance.recording import BagRecorder

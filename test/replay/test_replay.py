@@ -142,7 +142,8 @@ def _ros1_recording(path: Path, calibrated: CameraModel, frame_camera: CameraMod
             when = 1000 * 10**9 + i * 10**8  # 10 frames a second
             writer.write(other, when, info(other_camera))
             writer.write(ours, when, info(calibrated))
-            frame, _ = render(frame_camera, SceneSpec(marker_center_m=(0.3, 0.1, 7.0 - 0.1 * i), brightness=3.0, seed=i))
+            scene = SceneSpec(marker_center_m=(0.3, 0.1, 7.0 - 0.1 * i), brightness=3.0, seed=i)
+            frame, _ = render(frame_camera, scene)
             msg = t["sensor_msgs/msg/Image"](header=unset, height=frame_camera.height, width=frame_camera.width,
                                              encoding="bgr8", is_bigendian=0, step=3 * frame_camera.width,
                                              data=frame.reshape(-1))

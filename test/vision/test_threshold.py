@@ -1,3 +1,5 @@
+import itertools
+
 import pytest
 
 from auv_dock_guidance.errors import ConfigError
@@ -26,7 +28,7 @@ def test_lost_marker_lowers_the_share_step_by_step_down_to_the_far_share():
     for _ in range(30):
         t.update(None)
         values.append(t.fraction)
-    assert all(b <= a for a, b in zip(values, values[1:]))
+    assert all(b <= a for a, b in itertools.pairwise(values))
     assert values[-1] == pytest.approx(t.config.fraction_far)
 
 
