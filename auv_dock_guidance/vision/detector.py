@@ -23,8 +23,9 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import cv2
 import numpy as np
@@ -237,7 +238,7 @@ class Detector:
         min_radius = 0.7 * max(c.selection.min_radius_px, self._min_radius_px())  # smaller: no ring we accept
         boxes: list[tuple[tuple[int, int, int, int], float]] = []
         low, high = (cv2.threshold(tophat, level, 255, cv2.THRESH_BINARY)[1] for level in (floor, bright))
-        for mask, gap_px in [*itertools.product([low], c.search_gaps_px), (high, 0)]:
+        for mask, gap_px in [*itertools.product([low], c.search_gaps_px), (high, 0), (high, 32)]:
             kernel_size = int(round(gap_px * lens * s)) | 1
             grouped = mask if kernel_size <= 1 else cv2.dilate(
                 mask, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (kernel_size, kernel_size))
@@ -394,7 +395,7 @@ class Detector:
     # ------------------------------------------------------------------ fit
     def _fit(self, region: _Region, candidates: int) -> Detection:
         (mu, mv), mr = cv2.minEnclosingCircle(region.outer.astype(np.float32))
-        common = dict(
+        common: dict[str, Any] = dict(
             found=True, threshold=region.threshold, candidates=candidates,
             mec_u=float(mu), mec_v=float(mv), mec_radius_px=float(mr),
         )
@@ -512,7 +513,7 @@ class Detector:
         return ellipse, rms * math.sqrt(2.0 / independent)
 
 
-def _largest_child(contours: tuple, hierarchy: np.ndarray, parent: int) -> np.ndarray | None:
+def _largest_child(contours: Sequence[np.ndarray], hierarchy: np.ndarray, parent: int) -> np.ndarray | None:
     child = hierarchy[parent][2]
     best, best_area = None, 0.0
     while child != -1:
