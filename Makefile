@@ -28,6 +28,7 @@ test: venv
 
 lint: venv
 	$(BIN)/ruff check auv_dock_guidance test
+	$(BIN)/mypy auv_dock_guidance
 
 clean:
 	rm -rf $(VENV) build *.egg-info

@@ -192,7 +192,7 @@ def replay(
                 writer.write(copies[connection.id], timestamp,
                              raw if reader.is2 else typestore.ros1_to_cdr(raw, connection.msgtype))
             try:
-                msg = reader.deserialize(raw, connection.msgtype)
+                msg: Any = reader.deserialize(raw, connection.msgtype)
             except Exception as exc:
                 summary.damage = f"undecodable {connection.topic} message after {summary.frames} frames: {exc}"
                 continue
@@ -266,7 +266,7 @@ def _first_camera(reader: AnyReader, info_conns: list) -> CameraModel:
     problem = "no camera_info message"
     try:
         for connection, _, raw in reader.messages(connections=info_conns):
-            msg = reader.deserialize(raw, connection.msgtype)
+            msg: Any = reader.deserialize(raw, connection.msgtype)
             try:
                 return _camera_from_info(msg)
             except CameraModelError as exc:

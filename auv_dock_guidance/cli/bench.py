@@ -9,6 +9,7 @@ import random
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -40,7 +41,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    report: dict[str, object] = {}
+    report: dict[str, Any] = {}
     if not args.latency:
         report.update(detector_bench(args.frames))
     report.update(latency_bench(args.seconds, args.rate, not args.separate_vision))
@@ -68,7 +69,7 @@ def _bench_sequence(count: int) -> list[tuple[np.ndarray, tuple[float, float] | 
     return frames
 
 
-def detector_bench(count: int) -> dict[str, object]:
+def detector_bench(count: int) -> dict[str, Any]:
     """The paper's literal full-frame pipeline against our full-frame and tracking modes, same frames."""
     frames = _bench_sequence(count)
     camera = paper_camera()
@@ -92,7 +93,7 @@ def detector_bench(count: int) -> dict[str, object]:
             done += 1
             progress(done, len(modes) * count)
         results[name], times[name] = out, np.array(elapsed)
-    report: dict[str, object] = {"frames_per_mode": count}
+    report: dict[str, Any] = {"frames_per_mode": count}
     for name in modes:
         t = times[name]
         report[f"{name}_fps"] = rounded(1.0 / float(np.mean(t)), 1)
@@ -127,7 +128,7 @@ def _approach_frames(folder: Path, count: int = 12) -> None:
         cv2.imwrite(str(folder / f"frame_{i:03d}.png"), render(camera, spec)[0])
 
 
-def latency_bench(seconds: float, rate_hz: float, combined_vision: bool = True) -> dict[str, object]:
+def latency_bench(seconds: float, rate_hz: float, combined_vision: bool = True) -> dict[str, Any]:
     """Frame publish -> thruster command on the serial line, across the real node processes."""
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
@@ -160,8 +161,14 @@ def latency_bench(seconds: float, rate_hz: float, combined_vision: bool = True) 
                 if status.name.endswith("camera_ingest"):
                     published[0] = int(next(v.value for v in status.values if v.key == "frames"))
 
-        node.create_subscription(Float64, "bridge/latency", lambda m: latencies.append(m.data), 100)
-        node.create_subscription(Bool, "dock/detected", lambda m: processed.__setitem__(0, processed[0] + 1), 100)
+        def on_latency(msg: Float64) -> None:
+            latencies.append(msg.data)
+
+        def on_detected(msg: Bool) -> None:
+            processed[0] += 1
+
+        node.create_subscription(Float64, "bridge/latency", on_latency, 100)
+        node.create_subscription(Bool, "dock/detected", on_detected, 100)
         node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 10)
         group.start()
         progress = Progress("latency", int(seconds))

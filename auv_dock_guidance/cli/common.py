@@ -6,7 +6,7 @@ import argparse
 import json
 import math
 import sys
-from typing import Any
+from typing import Any, NoReturn
 
 from auv_dock_guidance.errors import CameraModelError
 from auv_dock_guidance.geometry.camera import CameraModel, paper_camera
@@ -50,7 +50,7 @@ def load_camera(path: str | None) -> CameraModel:
         fail(str(exc))
 
 
-def fail(message: str, code: int = 2) -> Any:
+def fail(message: str, code: int = 2) -> NoReturn:
     print(f"auv-dock: error: {message}", file=sys.stderr)
     raise SystemExit(code)
 

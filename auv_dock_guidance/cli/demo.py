@@ -15,6 +15,7 @@ import math
 import time
 from datetime import datetime
 from pathlib import Path
+from typing import Any
 
 from auv_dock_guidance.cli.common import fail
 from auv_dock_guidance.sim.closed_loop import EpisodeResult, entry_outcome
@@ -53,10 +54,16 @@ def run(args: argparse.Namespace) -> int:
     start = VehiclePose(x=world.dock_x_m - 12.0, y=1.0, z=-world.dock_depth_m + 0.5, yaw=math.radians(5.0))
     system = SimulatedSystem(world, start, report / "logs")
     node, vehicle = system.node, system.vehicle
-    seen = {"state": "starting", "bearing": None}
-    node.create_subscription(String, "guidance/state", lambda m: seen.__setitem__("state", m.data), 10)
-    node.create_subscription(String, "guidance/transition", lambda m: print(f"  guidance: {m.data}", flush=True),
-                             TRANSITION_QOS)
+    seen: dict[str, Any] = {"state": "starting", "bearing": None}
+
+    def on_state(m: String) -> None:
+        seen["state"] = m.data
+
+    def on_transition(m: String) -> None:
+        print(f"  guidance: {m.data}", flush=True)
+
+    node.create_subscription(String, "guidance/state", on_state, 10)
+    node.create_subscription(String, "guidance/transition", on_transition, TRANSITION_QOS)
     bearings: list[tuple[float, float, float]] = []
     t0 = time.monotonic()
 
@@ -70,7 +77,9 @@ def run(args: argparse.Namespace) -> int:
     print(f"demo: {args.scenario} pool, vehicle 12 m out, 1 m to the side, 0.5 m above the dock; report in {report}",
           flush=True)
     trajectory: list[tuple[float, float, float, float, float]] = []
-    outcome, lateral, heading = "timeout", None, None
+    outcome = "timeout"
+    lateral: float | None = None  # entry errors, once the nose crosses the entrance plane
+    heading: float | None = None
     last_print = 0.0
     try:
         while (elapsed := time.monotonic() - t0) < args.timeout:
@@ -112,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
                                           for t, b in sorted(recorder.bytes.items())},
     }
     (report / "summary.json").write_text(json.dumps(summary, indent=2))
-    if outcome == "docked":
+    if outcome == "docked" and lateral is not None and heading is not None:
         print(f"docked in {duration:.1f} s (entry {100 * lateral:.1f} cm off centre, "
               f"heading {heading:.1f} deg off the axis)")
     else:

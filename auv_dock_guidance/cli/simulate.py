@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(report)
         return 0
-    low, high = report["success_ci95"]  # type: ignore[misc]
+    low, high = report["success_ci95"]
     print(f"scenario {args.scenario}: docked {report['successes']}/{report['episodes']} "
           f"({100 * report['success_rate']:.1f} %, 95 % CI {100 * low:.1f}-{100 * high:.1f} %)")
     print(f"failures: {report['failures'] or 'none'}")
@@ -56,6 +56,6 @@ def run(args: argparse.Namespace) -> int:
               f"p95 {report['entry_lateral_error_m_p95']:.3f} m; heading error p95 "
               f"{report['entry_heading_error_deg_p95']:.1f} deg")
     print(f"largest range with a detection: {report['max_detection_range_m']}")
-    for path in report.get("plots", []):  # type: ignore[union-attr]
+    for path in report.get("plots", []):
         print(f"wrote {path}")
     return 0

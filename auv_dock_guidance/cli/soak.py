@@ -29,6 +29,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -36,6 +37,9 @@ from auv_dock_guidance.cli.common import positive_float, print_json, rounded
 from auv_dock_guidance.cli.progress import Progress
 from auv_dock_guidance.launcher import rss_mb
 from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
+
+if TYPE_CHECKING:  # rclpy is imported only when a soak runs
+    from auv_dock_guidance.sim_system import SimulatedSystem
 
 NEUTRAL = (1500, 1500, 1500, 1500)
 VISION = "vision_pipeline"  # the process of camera_ingest and detector
@@ -48,9 +52,9 @@ RECOVERY_S = 30.0
 @dataclass(frozen=True)
 class Fault:
     name: str
-    inject: Callable[[object], None]  # called with the SimulatedSystem
+    inject: Callable[[SimulatedSystem], None]
     hold_s: float  # observed this long before it is cleared
-    clear: Callable[[object], None]
+    clear: Callable[[SimulatedSystem], None]
     neutral_within_s: float | None  # None: thrust must go on through it
     from_last_command: bool = False  # the deadline counts from the last command, not the fault
     neutral_after_s: float | None = None  # the link is down until then: the first command after it must be neutral
@@ -63,12 +67,12 @@ class Outcome:
     wrong: str | None = None  # the reaction itself was wrong
 
 
-def _nothing(system) -> None:
+def _nothing(system: SimulatedSystem) -> None:
     pass
 
 
-def _signal(process: str, sig: signal.Signals) -> Callable[[object], None]:
-    def send(system) -> None:
+def _signal(process: str, sig: signal.Signals) -> Callable[[SimulatedSystem], None]:
+    def send(system: SimulatedSystem) -> None:
         p = system.group.processes[process]
         p.send_signal(sig)
         if sig == signal.SIGKILL:
@@ -76,11 +80,11 @@ def _signal(process: str, sig: signal.Signals) -> Callable[[object], None]:
     return send
 
 
-def _restart(process: str) -> Callable[[object], None]:
+def _restart(process: str) -> Callable[[SimulatedSystem], None]:
     return lambda system: system.group.restart(process)
 
 
-def _line_noise(system) -> None:
+def _line_noise(system: SimulatedSystem) -> None:
     rng = np.random.default_rng()
     end = time.monotonic() + 3.0
     while time.monotonic() < end:
@@ -125,10 +129,18 @@ def run(args: argparse.Namespace) -> int:
     state = {"value": "starting"}
     frames = [0]
     transitions: list[tuple[float, str]] = []
-    system.node.create_subscription(String, "guidance/state", lambda m: state.__setitem__("value", m.data), 10)
-    system.node.create_subscription(String, "guidance/transition",
-                                    lambda m: transitions.append((time.monotonic(), m.data)), 10)
-    system.node.create_subscription(Bool, "dock/detected", lambda m: frames.__setitem__(0, frames[0] + 1), 100)
+    def on_state(m: String) -> None:
+        state["value"] = m.data
+
+    def on_transition(m: String) -> None:
+        transitions.append((time.monotonic(), m.data))
+
+    def on_detected(m: Bool) -> None:
+        frames[0] += 1
+
+    system.node.create_subscription(String, "guidance/state", on_state, 10)
+    system.node.create_subscription(String, "guidance/transition", on_transition, 10)
+    system.node.create_subscription(Bool, "dock/detected", on_detected, 100)
     system.start()
     group = system.group
     injected: list[str] = []
@@ -186,7 +198,7 @@ def run(args: argparse.Namespace) -> int:
     return 0 if not late and not wrong and len(survived) == len(injected) else 1
 
 
-def _inject(fault: Fault, system, transitions: list[tuple[float, str]]) -> Outcome:
+def _inject(fault: Fault, system: SimulatedSystem, transitions: list[tuple[float, str]]) -> Outcome:
     """Inject, observe, clear, and judge what reached the main controller."""
     start = time.monotonic()
     fault.inject(system)
@@ -220,7 +232,7 @@ def _inject(fault: Fault, system, transitions: list[tuple[float, str]]) -> Outco
     return Outcome()
 
 
-def _recovered(system, state: dict) -> bool:
+def _recovered(system: SimulatedSystem, state: dict[str, str]) -> bool:
     """Tracking the dock again (as guidance says after the fault), with every node process running."""
     state["value"] = "unknown"  # a killed guidance's last word does not count
     deadline = time.monotonic() + RECOVERY_S

@@ -129,7 +129,7 @@ class Guidance:
         """Back to SEARCH (re-arm after ABORT or DOCKED)."""
         self.state = State.SEARCH
         self.cascade.reset()
-        self._since = None  # time the current state began
+        self._since: float | None = None  # time the current state began
         self._streak = 0
         self._last_target: Target | None = None  # the last detection steered by
         self._last_seen_s: float | None = None  # the last detection of any kind

@@ -72,6 +72,7 @@ class TargetTracker:
         self._rejections = 0
 
     def _predict(self, dt: float) -> None:
+        assert self._x is not None  # called only once a track has started
         if dt <= 0:
             return
         f = np.eye(6)
@@ -82,6 +83,7 @@ class TargetTracker:
         self._p = f @ self._p @ f.T + q * (g @ g.T)
 
     def _correct(self, z: np.ndarray, range_m: float) -> bool:
+        assert self._x is not None  # called only once a track has started
         h = np.hstack([np.eye(3), np.zeros((3, 3))])
         s = h @ self._p @ h.T + self._measurement_noise(range_m)
         innovation = z - h @ self._x

@@ -159,8 +159,8 @@ def _solve(found: list[tuple[str, np.ndarray]], board: Board, size: tuple[int, i
     object_points = [board.object_points() for _ in found]
     image_points = [c for _, c in found]
     flags = cv2.CALIB_FIX_TANGENT_DIST if fix_tangential else 0
-    rms, k, d, _, _, std_intrinsics, _, per_view = cv2.calibrateCameraExtended(
-        object_points, image_points, size, None, None, flags=flags
+    rms, k, d, _, _, std_intrinsics, _, per_view = cv2.calibrateCameraExtended(  # type: ignore[call-overload]
+        object_points, image_points, size, None, None, flags=flags  # no initial guess: None, which the stubs omit
     )
     return {
         "rms": rms,

@@ -280,7 +280,7 @@ def _radial_fold(k1: float, k2: float, k3: float) -> float | None:
 
     The derivative is 1 + 3 k1 s + 5 k2 s^2 + 7 k3 s^3 with s = r^2.
     """
-    roots = np.roots([7.0 * k3, 5.0 * k2, 3.0 * k1, 1.0]) if (k1 or k2 or k3) else []
+    roots = np.roots([7.0 * k3, 5.0 * k2, 3.0 * k1, 1.0]) if (k1 or k2 or k3) else np.array([])
     positive = [
         math.sqrt(r.real)
         for r in roots

@@ -15,6 +15,7 @@ import math
 import struct
 from dataclasses import dataclass
 from enum import IntEnum
+from typing import ClassVar
 
 START = b"\xa5\x5a"
 VERSION = 1
@@ -49,7 +50,7 @@ class ThrusterCommandMsg:
     pwm_us: tuple[int, int, int, int]
     armed: bool
 
-    _layout = struct.Struct("<4HB")
+    _layout: ClassVar[struct.Struct] = struct.Struct("<4HB")
 
     def pack(self) -> bytes:
         return self._layout.pack(*self.pwm_us, 1 if self.armed else 0)
@@ -57,7 +58,7 @@ class ThrusterCommandMsg:
     @classmethod
     def unpack(cls, data: bytes) -> ThrusterCommandMsg:
         *pwm, flags = cls._layout.unpack(data)
-        return cls(tuple(pwm), bool(flags & 1))  # type: ignore[arg-type]
+        return cls(tuple(pwm), bool(flags & 1))
 
 
 @dataclass(frozen=True)
@@ -66,7 +67,7 @@ class HeartbeatMsg:
     state: int  # sender-defined state code
     uptime_ms: int
 
-    _layout = struct.Struct("<BBI")
+    _layout: ClassVar[struct.Struct] = struct.Struct("<BBI")
 
     def pack(self) -> bytes:
         return self._layout.pack(self.source, self.state, self.uptime_ms & 0xFFFFFFFF)
@@ -80,7 +81,7 @@ class HeartbeatMsg:
 class ArmMsg:
     arm: bool
 
-    _layout = struct.Struct("<B")
+    _layout: ClassVar[struct.Struct] = struct.Struct("<B")
 
     def pack(self) -> bytes:
         return self._layout.pack(1 if self.arm else 0)
@@ -106,7 +107,7 @@ class TelemetryMsg:
     applied_pwm_us: tuple[int, int, int, int]  # what the controller drives right now
     last_command_seq: int
 
-    _layout = struct.Struct("<I7fH4HB")
+    _layout: ClassVar[struct.Struct] = struct.Struct("<I7fH4HB")
 
     def pack(self) -> bytes:
         return self._layout.pack(
@@ -118,7 +119,7 @@ class TelemetryMsg:
     @classmethod
     def unpack(cls, data: bytes) -> TelemetryMsg:
         v = cls._layout.unpack(data)
-        return cls(v[0], *v[1:8], v[8], tuple(v[9:13]), v[13])  # type: ignore[arg-type]
+        return cls(v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], (v[9], v[10], v[11], v[12]), v[13])
 
     def is_finite(self) -> bool:
         return all(math.isfinite(x) for x in (self.roll, self.pitch, self.yaw, self.depth,
@@ -126,7 +127,7 @@ class TelemetryMsg:
 
 
 Message = ThrusterCommandMsg | HeartbeatMsg | ArmMsg | TelemetryMsg
-MESSAGE_TYPES: dict[MsgId, type] = {
+MESSAGE_TYPES: dict[MsgId, type[ThrusterCommandMsg] | type[HeartbeatMsg] | type[ArmMsg] | type[TelemetryMsg]] = {
     MsgId.THRUSTER_COMMAND: ThrusterCommandMsg,
     MsgId.HEARTBEAT: HeartbeatMsg,
     MsgId.ARM: ArmMsg,

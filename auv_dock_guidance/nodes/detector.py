@@ -170,6 +170,7 @@ class DetectorNode(Node):
             return
         self._last_debug = now
         camera = self.detector.camera
+        assert camera is not None  # frames are only processed with a camera model
         share = self.detector.threshold.fraction
         text = (f"{'FOUND' if detection.found else 'SEARCH'} thr {detection.threshold:.0f} "
                 f"share {share if share is not None else float('nan'):.2f}")

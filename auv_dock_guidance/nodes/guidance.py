@@ -26,7 +26,7 @@ from sensor_msgs.msg import Imu
 from std_msgs.msg import Bool, Float64, MultiArrayDimension, String, UInt16MultiArray
 from std_srvs.srv import Trigger
 
-from auv_dock_guidance.control.cascade import CascadeConfig, Target
+from auv_dock_guidance.control.cascade import Attitude, CascadeConfig, Target
 from auv_dock_guidance.control.guidance import Guidance, GuidanceConfig, GuidanceOutput, State
 from auv_dock_guidance.control.mixer import MixerConfig
 from auv_dock_guidance.control.pid import PidGains
@@ -114,7 +114,7 @@ class GuidanceNode(Node):
         self.create_timer(1.0, lambda: publish_diagnostics(self, self.diag_pub, self.diagnostics()))
         self.problems = InputProblems(self)
         self._imu_order = StampGate()
-        self._attitude = None
+        self._attitude: Attitude | None = None
         self._depth = 0.0
         self._docked = False
         self._clock_steps_logged = 0

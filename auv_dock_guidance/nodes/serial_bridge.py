@@ -189,9 +189,8 @@ class SerialBridgeNode(Node):
         if self.transport.connected != self._connected:
             self._connected = self.transport.connected
             self.get_logger().info(f"serial port {self.transport.port} {'open' if self._connected else 'lost'}")
-        telemetry = self.bridge.telemetry
-        received = self.bridge.telemetry_time is not None and telemetry is not None
-        if received and telemetry.time_ms != self._last_telemetry_seq:
+        telemetry = self.bridge.telemetry  # set with its arrival time, only when a valid one came
+        if telemetry is not None and telemetry.time_ms != self._last_telemetry_seq:
             self._last_telemetry_seq = telemetry.time_ms
             self._publish_telemetry(telemetry)
 

@@ -67,7 +67,7 @@ def render_board(
     map_y[~usable] = -1
     image = cv2.remap(board_texture(board), map_x, map_y, cv2.INTER_LINEAR,
                       borderMode=cv2.BORDER_CONSTANT, borderValue=110)
-    image = cv2.GaussianBlur(image, (0, 0), blur_sigma).astype(np.float32)
+    image = np.asarray(cv2.GaussianBlur(image, (0, 0), blur_sigma), dtype=np.float32)
     image += rng.normal(0, noise, image.shape).astype(np.float32)
     return np.clip(image, 0, 255).astype(np.uint8)
 

@@ -6,6 +6,7 @@ import math
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -138,7 +139,7 @@ def _percentile(values: list[float], q: float) -> float | None:
     return float(np.percentile(values, q)) if values else None
 
 
-def summarize(outcomes: list[FrameOutcome]) -> dict[str, object]:
+def summarize(outcomes: list[FrameOutcome]) -> dict[str, Any]:
     """The evaluate report: rates and error percentiles."""
     marker = [o for o in outcomes if o.range_m is not None]
     empty = [o for o in outcomes if o.range_m is None]
@@ -169,7 +170,7 @@ def summarize(outcomes: list[FrameOutcome]) -> dict[str, object]:
     }
 
 
-def sweep_summary(outcomes: list[FrameOutcome], required_rate: float = 0.95) -> dict[str, object]:
+def sweep_summary(outcomes: list[FrameOutcome], required_rate: float = 0.95) -> dict[str, Any]:
     """Detection rate per whole metre, and the largest range up to which it stays at the required rate."""
     per_metre: dict[int, list[bool]] = {}
     for o in outcomes:

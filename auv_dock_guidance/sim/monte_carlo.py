@@ -7,6 +7,7 @@ from collections import Counter
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -48,7 +49,7 @@ def wilson_interval(successes: int, trials: int, z: float = 1.96) -> tuple[float
     return (max(0.0, centre - half), min(1.0, centre + half))
 
 
-def summarize(results: list[EpisodeResult]) -> dict[str, object]:
+def summarize(results: list[EpisodeResult]) -> dict[str, Any]:
     n = len(results)
     ok = [r for r in results if r.success]
     lateral = [r.entry_lateral_error_m for r in results if r.entry_lateral_error_m is not None]

@@ -151,7 +151,9 @@ def render(camera: CameraModel, spec: SceneSpec) -> tuple[np.ndarray, GroundTrut
     image = _compose(camera, spec, light, rng)
     if spec.jpeg_quality:
         encoded = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, int(spec.jpeg_quality)])[1]
-        image = cv2.imdecode(encoded, cv2.IMREAD_COLOR)
+        decoded = cv2.imdecode(encoded, cv2.IMREAD_COLOR)
+        assert decoded is not None  # a JPEG we just made
+        image = decoded
     return image, ground_truth(camera, spec)
 
 
@@ -348,7 +350,7 @@ def _noise_field(height: int, width: int) -> np.ndarray:
     """
     field = np.empty((height + _NOISE_MARGIN, width + _NOISE_MARGIN, 3), np.float32)
     cv2.setRNGSeed(12345)
-    cv2.randn(field, 0.0, 1.0)
+    cv2.randn(field, 0.0, 1.0)  # type: ignore[call-overload]  # scalar mean and deviation: fine, the stubs say arrays
     field.setflags(write=False)
     return field
 

@@ -63,11 +63,11 @@ class PoolWorld:
         visible = center[2] > 0.2
         return replace(
             self.scene,
-            marker_center_m=tuple(float(v) for v in center) if visible else None,
-            marker_normal=tuple(float(v) for v in normal),
+            marker_center_m=(float(center[0]), float(center[1]), float(center[2])) if visible else None,
+            marker_normal=(float(normal[0]), float(normal[1]), float(normal[2])),
             marker_radius_m=self.entrance_radius_m,
             surface_height_m=float(-position[2]) if self.reflection else None,
-            surface_up=tuple(float(v) for v in up),
+            surface_up=(float(up[0]), float(up[1]), float(up[2])),
             seed=seed,
         )
 

@@ -22,8 +22,7 @@ def test_recorder_writes_live_messages_into_an_mcap_bag(tmp_path, domain_id):
         node.destroy_node()
     finally:
         rclpy.try_shutdown()
-    with AnyReader([tmp_path / "bag"]) as reader:
-        messages = [reader.deserialize(raw, c.msgtype).data for c, _, raw in reader.messages()]
+    messages = _recorded(tmp_path / "bag")
     assert messages and set(messages) == {"TRACK"}
 
 
@@ -43,6 +42,10 @@ def test_a_recorder_started_after_a_transition_still_records_it(tmp_path, domain
         guidance.destroy_node()
     finally:
         rclpy.try_shutdown()
-    with AnyReader([tmp_path / "bag"]) as reader:
-        messages = [reader.deserialize(raw, c.msgtype).data for c, _, raw in reader.messages()]
-    assert messages == ["SEARCH -> TRACK: marker confirmed in 3 frames"]
+    assert _recorded(tmp_path / "bag") == ["SEARCH -> TRACK: marker confirmed in 3 frames"]
+
+
+def _recorded(bag) -> list[str]:
+    """The data of every String message in the bag, in order."""
+    with AnyReader([bag]) as reader:
+        return [reader.deserialize(raw, c.msgtype).data for c, _, raw in reader.messages()]
