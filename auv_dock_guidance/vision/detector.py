@@ -15,7 +15,9 @@ points are undistorted to the normalized plane, an ellipse is fitted to the oute
 outline and, for a resolved ring, to its inner outline too. The mean of the two is the
 LED centre line, unbiased by halo or threshold, and the ellipse centre is mapped back
 to image pixels. Points on the image border or beyond the lens model's fold are left
-out of the fit.
+out of the fit. A ring the frame cuts gets a circle through its visible arc (LED
+centres, or the strip's outer edge): the bearing that turns the vehicle towards it,
+and a rougher range.
 """
 
 from __future__ import annotations
@@ -198,7 +200,7 @@ class Detector:
         if best is None:
             reason = "no bright region" if not boxes else "rejected: " + "; ".join(sorted(set(rejected))[:3])
             return Detection(found=False, reason=reason)
-        return self._fit(regions[best], len(regions))
+        return self._fit(regions[best], len(regions), image.shape[:2])
 
     def _track_window(self, image: np.ndarray, last: Detection) -> tuple[tuple[int, int, int, int], float]:
         """A window around the last detection, wide enough for the ring to move between frames."""
@@ -333,16 +335,21 @@ class Detector:
             if hole_area < selection.min_hole_fraction * area:
                 dot_of[len(outlines)] = len(dots)
                 dots.append((pts, area, support))
-            (_, _), (d1, d2), _ = cv2.minAreaRect(contour)
             outer_full = _to_full(pts, scale, x0, y0)
+            if _on_border(outer_full, frame_size).any():  # the shape the frame left, not the cut one
+                axis_ratio, arc_deg = self._cut_shape(outer_full, frame_size)
+            else:
+                (_, _), (d1, d2), _ = cv2.minAreaRect(contour)
+                axis_ratio, arc_deg = min(d1, d2) / max(d1, d2, 1e-6), 360.0
             _, mec_r = cv2.minEnclosingCircle(outer_full.astype(np.float32))
             shape = CandidateShape(
                 area_px=area / (scale * scale),
                 center_v=float(outer_full[:, 1].mean()),
                 radius_px=float(mec_r),
-                axis_ratio=min(d1, d2) / max(d1, d2, 1e-6),
+                axis_ratio=axis_ratio,
                 hole_fraction=hole_area / area,
                 edge_support=support,
+                arc_deg=arc_deg,
             )
             hole_full = _to_full(hole[:, 0, :], scale, x0, y0) if hole is not None else None
             outlines.append((contour, _Region(shape, level, outer_full, hole_full)))
@@ -393,16 +400,22 @@ class Detector:
         return focal * self.config.marker_radius_m / self.config.max_range_m
 
     # ------------------------------------------------------------------ fit
-    def _fit(self, region: _Region, candidates: int) -> Detection:
+    def _fit(self, region: _Region, candidates: int, frame_size: tuple[int, int]) -> Detection:
         (mu, mv), mr = cv2.minEnclosingCircle(region.outer.astype(np.float32))
         common: dict[str, Any] = dict(
             found=True, threshold=region.threshold, candidates=candidates,
             mec_u=float(mu), mec_v=float(mv), mec_radius_px=float(mr),
         )
-        outer_fit = self._fit_ellipse(region.outer)
+        cut = bool(_on_border(region.outer, frame_size).any())
+        if cut and region.led_centers is not None:  # LED centres lie on the ring itself
+            outer_fit = self._fit_ellipse(region.led_centers, circle=True)
+        else:
+            outer_fit = self._fit_ellipse(_longest_inner_run(region.outer, frame_size), circle=cut)
         if outer_fit is None:  # too little of the outline is usable (image border, lens fold)
             return Detection(u=float(mu), v=float(mv), radius_px=float(mr), **common)
         outer = outer_fit[0]
+        if cut:  # part of a ring tells its bearing, not its tilt: no ring reading
+            return self._circle_detection(outer, common)
         inner, cue_noise = None, 0.0
         if region.hole is not None and is_ring(region.shape, self.config.selection):
             inner_fit = self._fit_ellipse(region.hole)
@@ -411,11 +424,7 @@ class Detector:
                 cue_noise = math.hypot(inner_fit[1], outer_fit[1])
         marker_radius = self.config.marker_radius_m
         if inner is None and not region.dotted:  # a solid blob: its outline is all we have
-            u, v, focal = self._center_pixels(outer.center_x, outer.center_y)
-            return Detection(
-                u=u, v=v, radius_px=outer.semi_major * focal, ellipse=outer, **common,
-                pose=pose_from_circle((outer.center_x, outer.center_y), outer.semi_major, marker_radius),
-            )
+            return self._circle_detection(outer, common)
         if inner is None:  # separate LEDs: their outlines straddle the centre line
             centre_line = outer
             solution = ring_center_solution(centre_line, marker_radius, led_points=self._led_points(region))
@@ -442,18 +451,24 @@ class Detector:
             pose=pose, ring_normal=normal, **common,
         )
 
+    def _circle_detection(self, outline: Ellipse, common: dict[str, Any]) -> Detection:
+        """The paper's reading of an outline: its centre, and the range from its largest radius."""
+        u, v, focal = self._center_pixels(outline.center_x, outline.center_y)
+        return Detection(
+            u=u, v=v, radius_px=outline.semi_major * focal, ellipse=outline, **common,
+            pose=pose_from_circle((outline.center_x, outline.center_y), outline.semi_major,
+                                  self.config.marker_radius_m),
+        )
+
     def _outline_residual(self, points_px: np.ndarray, frame_size: tuple[int, int], samples: int = 96) -> float:
         """How far an outline is from an ellipse: rms radial distance / mean radius (0 when unknown).
 
         On the undistorted plane, where a circle seen from any angle is an ellipse (the lens
         bends a large ring near the frame's edge away from one). Points on the frame's
-        border are left out: a ring cut by the edge is still an ellipse.
+        border are left out, and of a strip the frame cuts open only its longer (outer) edge
+        counts: a ring cut by the edge is still an ellipse.
         """
-        points = points_px[~_on_border(points_px, frame_size)]
-        points = points[:: max(1, len(points) // samples)]
-        if self.camera is not None:
-            xy, valid = self.camera.pixels_to_normalized(points)
-            points = xy[valid] * self.camera.focal_px
+        points = self._undistorted(_longest_inner_run(points_px, frame_size), samples)
         if len(points) < 8:
             return 0.0
         (cx, cy), (d1, d2), angle = cv2.fitEllipse(points.astype(np.float32))
@@ -464,6 +479,24 @@ class Detector:
         size = math.sqrt(ellipse.semi_major * ellipse.semi_minor)
         residual = _radial_residual(ellipse, points.astype(np.float64)) / size
         return float(np.sqrt(np.mean(residual * residual)))
+
+    def _cut_shape(self, points_px: np.ndarray, frame_size: tuple[int, int], samples: int = 96) -> tuple[float, float]:
+        """(axis ratio of its ellipse, degrees of a circle it covers) of the longest stretch of
+        an outline off the frame's border: the shape of what the frame left of a ring."""
+        points = self._undistorted(_longest_inner_run(points_px, frame_size), samples)
+        if len(points) < 8:
+            return 0.0, 0.0
+        _, (d1, d2), _ = cv2.fitEllipse(points.astype(np.float32))
+        ratio = min(d1, d2) / max(d1, d2) if min(d1, d2) > 0 and math.isfinite(d1 + d2) else 0.0
+        return ratio, _arc_degrees(points)
+
+    def _undistorted(self, points_px: np.ndarray, samples: int) -> np.ndarray:
+        """About ``samples`` of the points on the normalized plane, in focal-length pixels."""
+        points = points_px[:: max(1, len(points_px) // samples)]
+        if self.camera is None:
+            return points.astype(np.float64)
+        xy, valid = self.camera.pixels_to_normalized(points)
+        return xy[valid] * self.camera.focal_px
 
     def _led_points(self, region: _Region) -> np.ndarray | None:
         """LED image centres on the normalized plane (those that undistort validly)."""
@@ -479,9 +512,12 @@ class Detector:
         uv = self.camera.normalized_to_pixels(np.array([x, y]))
         return float(uv[0]), float(uv[1]), self.camera.focal_px
 
-    def _fit_ellipse(self, points_px: np.ndarray | None) -> tuple[Ellipse, float] | None:
+    def _fit_ellipse(self, points_px: np.ndarray | None, circle: bool = False) -> tuple[Ellipse, float] | None:
         """Ellipse through outline points on the normalized plane (pixel plane without a camera),
         and the standard error of its centre (normalized units).
+
+        ``circle``: fit a circle instead, for an arc the frame cut; five ellipse parameters
+        from half an outline wander (the radius, hence the range, by tens of percent).
 
         Outline errors are correlated along the outline (scallops of separate LEDs, pixel
         steps), so the points count as one independent sample per few pixels of outline.
@@ -499,14 +535,17 @@ class Detector:
             focal = self.camera.focal_px
         else:
             xy, focal = points_px.astype(float), 1.0
-        if len(xy) < 8:
+        if len(xy) < (5 if circle else 8):
             return None
-        (cx, cy), (d1, d2), angle = cv2.fitEllipse((xy * focal).astype(np.float32))
-        major, minor = max(d1, d2) / 2.0, min(d1, d2) / 2.0
-        if not (math.isfinite(major) and minor > 0):
+        if circle:
+            ellipse = _circle_through(xy)
+        else:
+            (cx, cy), (d1, d2), angle = cv2.fitEllipse((xy * focal).astype(np.float32))
+            major, minor = max(d1, d2) / 2.0, min(d1, d2) / 2.0
+            angle_rad = math.radians(angle) if d1 >= d2 else math.radians(angle + 90.0)
+            ellipse = Ellipse(cx / focal, cy / focal, major / focal, minor / focal, angle_rad)
+        if not (math.isfinite(ellipse.semi_major) and ellipse.semi_minor > 0):
             return None
-        angle_rad = math.radians(angle) if d1 >= d2 else math.radians(angle + 90.0)
-        ellipse = Ellipse(cx / focal, cy / focal, major / focal, minor / focal, angle_rad)
         residual = _radial_residual(ellipse, xy)
         rms = float(np.sqrt(np.mean(residual * residual)))
         independent = max(4.0, len(xy) / 8.0)
@@ -717,6 +756,41 @@ def _on_border(points: np.ndarray, frame_size: tuple[int, int]) -> np.ndarray:
     """Which full-resolution points lie on the frame's outermost pixels."""
     h, w = frame_size
     return (points[:, 0] <= 1.0) | (points[:, 0] >= w - 2.0) | (points[:, 1] <= 1.0) | (points[:, 1] >= h - 2.0)
+
+
+def _longest_inner_run(outline: np.ndarray, frame_size: tuple[int, int]) -> np.ndarray:
+    """The longest stretch of a closed outline between visits to the frame's border.
+
+    A strip the frame cuts is outlined by its outer edge, the border, its inner edge and
+    the border again: two concentric arcs no single ellipse fits. The outer one is the
+    longer. An outline that never touches the border is returned whole.
+    """
+    inside = ~_on_border(outline, frame_size)
+    if inside.all() or not inside.any():
+        return outline[inside]
+    start = int(np.argmin(inside))  # roll so the outline begins on the border: runs do not wrap
+    rolled, flags = np.roll(outline, -start, axis=0), np.roll(inside, -start)
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], flags.astype(np.int8), [0]))))
+    starts, ends = edges[0::2], edges[1::2]
+    longest = int(np.argmax(ends - starts))
+    return rolled[starts[longest]:ends[longest]]
+
+
+def _circle_through(xy: np.ndarray) -> Ellipse:
+    """Least-squares circle (Kasa's algebraic fit) as an ellipse with equal axes."""
+    a = np.column_stack([2.0 * xy, np.ones(len(xy))])
+    b = (xy * xy).sum(axis=1)
+    (cx, cy, c), *_ = np.linalg.lstsq(a, b, rcond=None)
+    radius = math.sqrt(max(0.0, c + cx * cx + cy * cy))
+    return Ellipse(float(cx), float(cy), radius, radius, 0.0)
+
+
+def _arc_degrees(xy: np.ndarray) -> float:
+    """How much of its least-squares circle an open outline covers, in degrees."""
+    circle = _circle_through(xy)
+    angles = np.sort(np.arctan2(xy[:, 1] - circle.center_y, xy[:, 0] - circle.center_x))
+    gaps = np.diff(np.concatenate((angles, [angles[0] + 2.0 * math.pi])))
+    return math.degrees(2.0 * math.pi - float(gaps.max()))
 
 
 def _radial_residual(ellipse: Ellipse, xy: np.ndarray) -> np.ndarray:

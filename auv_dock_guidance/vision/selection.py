@@ -3,7 +3,8 @@
 Gates first drop what cannot be the marker: too small for the farthest range we accept
 (glints, speckle, distant lamps), too elongated (streaks), without a real edge around it
 (haze, glow), or with an outline no ellipse fits (caustics, structure: a circle seen at
-any angle is an ellipse). Among the rest the paper's rule chooses: the largest closed
+any angle is an ellipse). Where the frame cuts an outline, its shape says little; what
+is left must still bend through most of a half circle. Among the rest the paper's rule chooses: the largest closed
 contour, and when several are about equally large the lowest in the image, because a
 surface reflection always appears above the light it mirrors. Two additions: a region
 with the ring's dark centre beats a solid blob, so a lamp cannot win on size alone once
@@ -28,6 +29,7 @@ class SelectionConfig:
     min_axis_ratio: float = 0.25  # minor / major axis; below: a streak, not a ring
     min_edge_support: float = 0.8  # share of the outline on an improved-Canny edge (LEDs are sharp lights)
     max_ellipse_residual: float = 0.05  # rms distance of the outline from its ellipse / mean radius
+    min_cut_arc_deg: float = 150.0  # of its circle an outline the frame cuts must cover (a streak covers little)
     min_contrast_share: float = 0.35  # dimmer than this share of the brightest of its kind: not the LEDs
     tie_ratio: float = 0.7  # areas within this ratio of the largest are "equally large"
     prefer_rings: bool = True
@@ -55,6 +57,7 @@ class CandidateShape:
     edge_support: float
     contrast: float = 0.0  # mean grey level of the region above its surroundings
     ellipse_residual: float = 0.0  # rms distance of the outline from its fitted ellipse / mean radius
+    arc_deg: float = 360.0  # how much of a circle the outline covers (less only where the frame cuts it)
 
 
 def rejection_reason(shape: CandidateShape, config: SelectionConfig, min_radius_px: float) -> str | None:
@@ -65,6 +68,8 @@ def rejection_reason(shape: CandidateShape, config: SelectionConfig, min_radius_
         return f"elongated (axis ratio {shape.axis_ratio:.2f})"
     if shape.edge_support < config.min_edge_support:
         return f"no sharp outline (edge support {shape.edge_support:.2f})"
+    if shape.arc_deg < config.min_cut_arc_deg:
+        return f"an open arc the frame cut ({shape.arc_deg:.0f} deg of a circle)"
     if shape.ellipse_residual > config.max_ellipse_residual:
         return f"not an ellipse (outline off by {100 * shape.ellipse_residual:.0f} % of its radius)"
     return None

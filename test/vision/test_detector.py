@@ -1,5 +1,6 @@
 import math
 
+import cv2
 import numpy as np
 import pytest
 
@@ -68,6 +69,29 @@ def test_marker_cut_by_the_frame_edge_is_still_centred(camera):
     assert truth.center_px[0] + truth.radius_px > camera.width
     assert detection.found
     assert math.hypot(detection.u - truth.center_px[0], detection.v - truth.center_px[1]) < 5.0
+
+
+@pytest.mark.parametrize("led_count", [0, 32])
+@pytest.mark.parametrize("edge_px", [(1910.0, 540.0), (960.0, 8.0)])
+def test_a_ring_half_out_of_the_frame_still_gives_its_bearing(camera, led_count, edge_px):
+    # Centre on the frame's edge: half the ring is out of view, and what is left is open.
+    xy, _ = camera.pixels_to_normalized(np.array([edge_px]))
+    spec = SceneSpec(marker_center_m=(8.0 * xy[0, 0], 8.0 * xy[0, 1], 8.0), marker_normal=(0.3, 0.0, -1.0),
+                     led_count=led_count, brightness=3.0, attenuation_per_m=0.08, seed=5)
+    detection, _ = _detect(camera, spec)
+    assert detection.found, detection.reason
+    assert detection.pose.yaw_rad == pytest.approx(math.atan(xy[0, 0]), abs=math.radians(0.3))
+    assert detection.pose.pitch_rad == pytest.approx(math.atan(xy[0, 1]), abs=math.radians(0.3))
+    assert detection.pose.range_m == pytest.approx(8.0, rel=0.5)
+
+
+@pytest.mark.parametrize("ends", [((1600, 1079), (1919, 900)), ((0, 200), (300, 0)), ((1919, 500), (1750, 560))])
+def test_a_streak_the_frame_cuts_is_not_taken_for_a_cut_ring(camera, ends):
+    image = np.full((camera.height, camera.width, 3), 20, np.uint8)
+    cv2.line(image, *ends, (255, 255, 255), 14)
+    detection = Detector(camera).detect(cv2.GaussianBlur(image, (5, 5), 0))
+    assert not detection.found
+    assert "open arc" in detection.reason or "elongated" in detection.reason
 
 
 def test_threshold_state_carries_over_a_sequence(camera):
