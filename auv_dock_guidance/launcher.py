@@ -4,7 +4,8 @@ Used by `auv-dock run`, the demo, the latency bench and the integration tests. E
 runs as ``python -m auv_dock_guidance.nodes.<name>`` with ``--ros-args --params-file``;
 overrides use the node-qualified form (``-p detector:marker_radius_m:=0.4``) so they beat
 the node's own section of the file. The environment selects the shared-memory Fast DDS
-profile and, unless told otherwise, localhost-only discovery.
+profile (UDP only for guidance and serial_bridge) and, unless told otherwise,
+localhost-only discovery.
 """
 
 from __future__ import annotations
@@ -32,6 +33,10 @@ NODES_OF = {"vision_pipeline": ("camera_ingest", "detector")}  # parameter secti
 # (measured: no drops and about half the latency on two cores); separate: one node each.
 VISION_COMBINED = ["vision_pipeline", "guidance", "serial_bridge"]
 VISION_SEPARATE = ["camera_ingest", "detector", "guidance", "serial_bridge"]
+# Processes that never carry frames stay off shared memory: a killed process can leave a
+# Fast DDS port lock behind that leaves its restart deaf (see config/fastdds_udp_only.xml).
+UDP_ONLY = {"guidance", "serial_bridge"}
+PROFILES_VARIABLE = "FASTRTPS_DEFAULT_PROFILES_FILE"
 
 
 def rss_mb(pid: int) -> float:
@@ -47,7 +52,7 @@ def rss_mb(pid: int) -> float:
 
 def ros_environment(domain_id: int | None = None, localhost_only: bool = True) -> dict[str, str]:
     env = dict(os.environ)
-    env.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(config_file("fastdds_shm.xml")))
+    env.setdefault(PROFILES_VARIABLE, str(config_file("fastdds_shm.xml")))
     if localhost_only:
         env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     if domain_id is not None:
@@ -103,9 +108,16 @@ class NodeGroup:
             out = open(self.log_dir / f"{name}.log", log_mode)
             self._logs.append(out)
         self.processes[name] = subprocess.Popen(
-            self.command(name), env=self.env, stdout=out, stderr=subprocess.STDOUT if out else None,
+            self.command(name), env=self.environment(name), stdout=out, stderr=subprocess.STDOUT if out else None,
             stdin=subprocess.DEVNULL, start_new_session=True,
         )
+
+    def environment(self, name: str) -> dict[str, str]:
+        """The group's environment, with the UDP-only profile for UDP_ONLY nodes unless the
+        user chose a profile of their own."""
+        if name in UDP_ONLY and self.env.get(PROFILES_VARIABLE) == str(config_file("fastdds_shm.xml")):
+            return {**self.env, PROFILES_VARIABLE: str(config_file("fastdds_udp_only.xml"))}
+        return self.env
 
     def exited(self) -> dict[str, int]:
         return {n: p.returncode for n, p in self.processes.items() if p.poll() is not None}

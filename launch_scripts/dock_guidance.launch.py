@@ -19,6 +19,7 @@ def generate_launch_description():
     port = LaunchConfiguration("port")
     source = LaunchConfiguration("source")
     path = LaunchConfiguration("path")
+    udp_only = {"FASTRTPS_DEFAULT_PROFILES_FILE": os.path.join(config, "fastdds_udp_only.xml")}
     return LaunchDescription([
         DeclareLaunchArgument("port", default_value="/dev/ttyUSB0", description="main controller serial port"),
         DeclareLaunchArgument("source", default_value="device", description="device | video | folder | sim"),
@@ -27,8 +28,9 @@ def generate_launch_description():
         # camera_ingest and detector share one process: 1080p frames stay inside it.
         Node(package="auv_dock_guidance", executable="dock_vision_pipeline",
              parameters=[params, {"source": source, "path": path}], output="screen"),
+        # Small messages only: off shared memory, so a restart after a crash is never deaf.
         Node(package="auv_dock_guidance", executable="dock_guidance", name="guidance",
-             parameters=[params], output="screen"),
+             parameters=[params], output="screen", additional_env=udp_only),
         Node(package="auv_dock_guidance", executable="dock_serial_bridge", name="serial_bridge",
-             parameters=[params, {"port": port}], output="screen"),
+             parameters=[params, {"port": port}], output="screen", additional_env=udp_only),
     ])

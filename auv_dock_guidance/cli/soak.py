@@ -145,6 +145,7 @@ def run(args: argparse.Namespace) -> int:
     group = system.group
     injected: list[str] = []
     survived: list[str] = []
+    not_survived: list[str] = []  # which, and when: to find it in the node logs
     outcomes: list[Outcome] = []
     dockings = 0
     t0 = time.monotonic()
@@ -169,6 +170,8 @@ def run(args: argparse.Namespace) -> int:
                 outcomes.append(_inject(fault, system, transitions))
                 if _recovered(system, state):
                     survived.append(fault.name)
+                else:
+                    not_survived.append(f"{fault.name} #{len(injected)} at {time.monotonic() - t0:.0f} s")
                 next_fault = time.monotonic() + args.fault_every
         rss_end = sum(rss_mb(p.pid) for p in group.processes.values())
     except KeyboardInterrupt:
@@ -188,7 +191,8 @@ def run(args: argparse.Namespace) -> int:
         "rss_growth_pct": rounded(100.0 * (rss_end - rss_start) / rss_start, 1) if rss_start else None,
         "faults_injected": len(injected), "faults_survived": len(survived), "dockings": dockings,
         "worst_reaction_ms": {k: rounded(v, 0) for k, v in worst_ms.items()},
-        "faults": injected, "late": late, "wrong_reactions": wrong, "node_exit_codes": codes, "logs": str(logs),
+        "faults": injected, "not_survived": not_survived,
+        "late": late, "wrong_reactions": wrong, "node_exit_codes": codes, "logs": str(logs),
     }
     if args.json:
         print_json(report)

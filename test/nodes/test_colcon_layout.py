@@ -41,7 +41,7 @@ def test_executables_and_share_files_are_where_ros2_looks(install):
     share = install / "share" / "auv_dock_guidance"
     assert (share / "package.xml").is_file()
     assert (share / "launch" / "dock_guidance.launch.py").is_file()
-    for name in ("dock_guidance.yaml", "camera_info.yaml", "thrusters.yaml", "fastdds_shm.xml"):
+    for name in ("dock_guidance.yaml", "camera_info.yaml", "thrusters.yaml", "fastdds_shm.xml", "fastdds_udp_only.xml"):
         assert (share / "config" / name).is_file(), name
 
 
