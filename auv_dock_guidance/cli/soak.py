@@ -144,7 +144,6 @@ def run(args: argparse.Namespace) -> int:
     system.start()
     group = system.group
     injected: list[str] = []
-    survived: list[str] = []
     not_survived: list[str] = []  # which, and when: to find it in the node logs
     outcomes: list[Outcome] = []
     dockings = 0
@@ -168,9 +167,7 @@ def run(args: argparse.Namespace) -> int:
                 fault = FAULTS[len(injected) % len(FAULTS)]
                 injected.append(fault.name)
                 outcomes.append(_inject(fault, system, transitions))
-                if _recovered(system, state):
-                    survived.append(fault.name)
-                else:
+                if not _recovered(system, state):
                     not_survived.append(f"{fault.name} #{len(injected)} at {time.monotonic() - t0:.0f} s")
                 next_fault = time.monotonic() + args.fault_every
         rss_end = sum(rss_mb(p.pid) for p in group.processes.values())
@@ -189,7 +186,7 @@ def run(args: argparse.Namespace) -> int:
         "minutes": rounded(minutes, 2), "frames": frames[0], "deadline_misses": len(late),
         "rss_start_mb": rounded(rss_start, 1), "rss_end_mb": rounded(rss_end, 1),
         "rss_growth_pct": rounded(100.0 * (rss_end - rss_start) / rss_start, 1) if rss_start else None,
-        "faults_injected": len(injected), "faults_survived": len(survived), "dockings": dockings,
+        "faults_injected": len(injected), "faults_survived": len(injected) - len(not_survived), "dockings": dockings,
         "worst_reaction_ms": {k: rounded(v, 0) for k, v in worst_ms.items()},
         "faults": injected, "not_survived": not_survived,
         "late": late, "wrong_reactions": wrong, "node_exit_codes": codes, "logs": str(logs),
@@ -199,7 +196,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         for key, value in report.items():
             print(f"{key:18}{value}")
-    return 0 if not late and not wrong and len(survived) == len(injected) else 1
+    return 0 if not late and not wrong and not not_survived else 1
 
 
 def _inject(fault: Fault, system: SimulatedSystem, transitions: list[tuple[float, str]]) -> Outcome:

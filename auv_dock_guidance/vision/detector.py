@@ -471,11 +471,9 @@ class Detector:
         points = self._undistorted(_longest_inner_run(points_px, frame_size), samples)
         if len(points) < 8:
             return 0.0
-        (cx, cy), (d1, d2), angle = cv2.fitEllipse(points.astype(np.float32))
-        if not (min(d1, d2) > 0 and math.isfinite(d1 + d2)):
+        ellipse = _ellipse_through(points)
+        if ellipse is None:
             return 0.0
-        ellipse = Ellipse(cx, cy, max(d1, d2) / 2.0, min(d1, d2) / 2.0,
-                          math.radians(angle) if d1 >= d2 else math.radians(angle + 90.0))
         size = math.sqrt(ellipse.semi_major * ellipse.semi_minor)
         residual = _radial_residual(ellipse, points.astype(np.float64)) / size
         return float(np.sqrt(np.mean(residual * residual)))
@@ -486,8 +484,8 @@ class Detector:
         points = self._undistorted(_longest_inner_run(points_px, frame_size), samples)
         if len(points) < 8:
             return 0.0, 0.0
-        _, (d1, d2), _ = cv2.fitEllipse(points.astype(np.float32))
-        ratio = min(d1, d2) / max(d1, d2) if min(d1, d2) > 0 and math.isfinite(d1 + d2) else 0.0
+        ellipse = _ellipse_through(points)
+        ratio = ellipse.semi_minor / ellipse.semi_major if ellipse is not None else 0.0
         return ratio, _arc_degrees(points)
 
     def _undistorted(self, points_px: np.ndarray, samples: int) -> np.ndarray:
@@ -525,11 +523,7 @@ class Detector:
         if points_px is None:
             return None
         if self.camera is not None:
-            w, h = self.camera.width, self.camera.height
-            inside = (
-                (points_px[:, 0] > 1.0) & (points_px[:, 0] < w - 2.0)
-                & (points_px[:, 1] > 1.0) & (points_px[:, 1] < h - 2.0)
-            )
+            inside = ~_on_border(points_px, (self.camera.height, self.camera.width))
             xy, valid = self.camera.pixels_to_normalized(points_px[inside])
             xy = xy[valid]
             focal = self.camera.focal_px
@@ -538,13 +532,13 @@ class Detector:
         if len(xy) < (5 if circle else 8):
             return None
         if circle:
-            ellipse = _circle_through(xy)
+            ellipse: Ellipse | None = _circle_through(xy)
         else:
-            (cx, cy), (d1, d2), angle = cv2.fitEllipse((xy * focal).astype(np.float32))
-            major, minor = max(d1, d2) / 2.0, min(d1, d2) / 2.0
-            angle_rad = math.radians(angle) if d1 >= d2 else math.radians(angle + 90.0)
-            ellipse = Ellipse(cx / focal, cy / focal, major / focal, minor / focal, angle_rad)
-        if not (math.isfinite(ellipse.semi_major) and ellipse.semi_minor > 0):
+            fitted = _ellipse_through(xy * focal)  # fitted in pixel units, where cv2's tolerances are set
+            ellipse = None if fitted is None else Ellipse(
+                fitted.center_x / focal, fitted.center_y / focal, fitted.semi_major / focal,
+                fitted.semi_minor / focal, fitted.angle_rad)
+        if ellipse is None or not (math.isfinite(ellipse.semi_major) and ellipse.semi_minor > 0):
             return None
         residual = _radial_residual(ellipse, xy)
         rms = float(np.sqrt(np.mean(residual * residual)))
@@ -724,22 +718,21 @@ def _arc_ring(dots: list[_Dot], min_coverage: float = 0.6) -> _SegmentRing | Non
     points = np.concatenate([d[0] for d in dots]).astype(np.float64)
     if len(points) < 16:
         return None
-    (cx, cy), (d1, d2), angle = cv2.fitEllipse(points.astype(np.float32))
-    if not (min(d1, d2) > 2 and math.isfinite(d1 + d2)):
+    ellipse = _ellipse_through(points)
+    if ellipse is None or ellipse.semi_minor <= 1.0:
         return None
-    ellipse = Ellipse(cx, cy, max(d1, d2) / 2.0, min(d1, d2) / 2.0,
-                      math.radians(angle) if d1 >= d2 else math.radians(angle + 90.0))
-    offset = np.abs(_radial_residual(ellipse, points)) / math.sqrt(ellipse.semi_major * ellipse.semi_minor)
+    a, b = ellipse.semi_major, ellipse.semi_minor
+    offset = np.abs(_radial_residual(ellipse, points)) / math.sqrt(a * b)
     area = sum(d[1] for d in dots)
-    ellipse_area = math.pi * d1 * d2 / 4.0
-    angles = np.arctan2(points[:, 1] - cy, points[:, 0] - cx)
+    ellipse_area = math.pi * a * b
+    angles = np.arctan2(points[:, 1] - ellipse.center_y, points[:, 0] - ellipse.center_x)
     covered = len(set(((angles + math.pi) / (2 * math.pi) * 36).astype(int) % 36)) / 36.0
     if area > 0.5 * ellipse_area or float(np.mean(offset)) > 0.25 or covered < min_coverage:
         return None
     return _SegmentRing(
         members=tuple(range(len(dots))), outline=points.astype(np.int32), led_centers=None,
-        edge_support=float(np.mean([d[2] for d in dots])), area=ellipse_area, axis_ratio=min(d1, d2) / max(d1, d2),
-        center_row=float(cy), residual=float(np.std(offset)),
+        edge_support=float(np.mean([d[2] for d in dots])), area=ellipse_area, axis_ratio=b / a,
+        center_row=float(ellipse.center_y), residual=float(np.std(offset)),
     )
 
 
@@ -774,6 +767,15 @@ def _longest_inner_run(outline: np.ndarray, frame_size: tuple[int, int]) -> np.n
     starts, ends = edges[0::2], edges[1::2]
     longest = int(np.argmax(ends - starts))
     return rolled[starts[longest]:ends[longest]]
+
+
+def _ellipse_through(points: np.ndarray) -> Ellipse | None:
+    """cv2.fitEllipse as an Ellipse (semi-axes, angle of the major axis); None when degenerate."""
+    (cx, cy), (d1, d2), angle = cv2.fitEllipse(points.astype(np.float32))
+    if not (min(d1, d2) > 0 and math.isfinite(d1 + d2)):
+        return None
+    return Ellipse(cx, cy, max(d1, d2) / 2.0, min(d1, d2) / 2.0,
+                   math.radians(angle) if d1 >= d2 else math.radians(angle + 90.0))
 
 
 def _circle_through(xy: np.ndarray) -> Ellipse:
