@@ -8,7 +8,7 @@ import os
 import time
 from pathlib import Path
 
-from auv_dock_guidance.cli.common import fail, positive_float, print_json
+from auv_dock_guidance.cli.common import domain_id, fail, new_path, non_negative_int, positive_float, print_json
 from auv_dock_guidance.cli.progress import Progress
 from auv_dock_guidance.errors import DockGuidanceError
 from auv_dock_guidance.replay import compare, replay
@@ -18,11 +18,11 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     r = subparsers.add_parser("record", help="record the live system's topics into a ROS 2 bag (MCAP)",
                               description="Record camera, detection, guidance, telemetry and thruster topics "
                               "until Ctrl-C (or --duration).")
-    r.add_argument("output", metavar="OUT", help="bag folder to create")
+    r.add_argument("output", metavar="OUT", type=new_path, help="bag folder to create")
     r.add_argument("--topics", nargs="+", help="topics to record (default: all of this system's)")
     r.add_argument("--storage", choices=["mcap", "sqlite3"], default="mcap")
     r.add_argument("--duration", type=positive_float, help="stop after this many seconds")
-    r.add_argument("--domain-id", type=int, help="ROS_DOMAIN_ID to listen on")
+    r.add_argument("--domain-id", type=domain_id, help="ROS_DOMAIN_ID to listen on")
     r.set_defaults(run=run_record)
 
     p = subparsers.add_parser("replay", help="run detector and guidance over a recorded bag",
@@ -31,7 +31,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                               "as fast as possible, and write their outputs under /replay/ into a new MCAP bag "
                               "beside the input topics.")
     p.add_argument("bag", metavar="BAG")
-    p.add_argument("--output", "-o", metavar="OUT", help="output bag folder (default BAG_replay)")
+    p.add_argument("--output", "-o", metavar="OUT", type=new_path, help="output bag folder (default BAG_replay)")
     p.add_argument("--camera-info", metavar="YAML", help="camera model when the bag has none (or to override it)")
     p.add_argument("--image-topic", help="camera topic when the bag has several")
     p.add_argument("--no-inputs", action="store_true", help="write only the /replay/ topics")
@@ -45,12 +45,13 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     c.add_argument("b", metavar="B")
     c.add_argument("--center-px", type=positive_float, default=1.0, help="centre tolerance (default %(default)s px)")
     c.add_argument("--range-pct", type=positive_float, default=2.0, help="range tolerance (default %(default)s %%)")
-    c.add_argument("--command-us", type=int, default=10, help="thruster command tolerance (default %(default)s us)")
+    c.add_argument("--command-us", type=non_negative_int, default=10,
+                   help="thruster command tolerance (default %(default)s us)")
     c.add_argument("--json", action="store_true")
     c.set_defaults(run=run_compare)
 
     f = subparsers.add_parser("make-fixture", help="write the simulated approach bag used by the replay test")
-    f.add_argument("output", metavar="OUT")
+    f.add_argument("output", metavar="OUT", type=new_path)
     f.set_defaults(run=run_make_fixture)
 
 

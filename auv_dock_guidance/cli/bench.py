@@ -14,7 +14,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from auv_dock_guidance.cli.common import positive_float, positive_int, print_json, rounded
+from auv_dock_guidance.cli.common import positive_float, positive_int, print_json, rate_hz, rounded
 from auv_dock_guidance.cli.progress import Progress
 from auv_dock_guidance.geometry.camera import paper_camera
 from auv_dock_guidance.launcher import VISION_COMBINED, VISION_SEPARATE, NodeGroup, ros_environment, rss_mb
@@ -32,7 +32,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--latency", action="store_true", help="only the frame-to-PWM latency through the nodes")
     p.add_argument("--seconds", type=positive_float, default=15.0, help="latency run length (default %(default)s)")
-    p.add_argument("--rate", type=positive_float, default=30.0, help="camera rate in Hz (default %(default)s)")
+    p.add_argument("--rate", type=rate_hz, default=30.0, help="camera rate in Hz (default %(default)s)")
     p.add_argument("--separate-vision", action="store_true", help="camera_ingest and detector as two processes")
     p.add_argument("--frames", type=positive_int, default=120,
                    help="frames for the detector timings (default %(default)s)")

@@ -17,7 +17,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-from auv_dock_guidance.cli.common import fail
+from auv_dock_guidance.cli.common import fail, folder_to_write, positive_float
 from auv_dock_guidance.sim.closed_loop import EpisodeResult, entry_outcome
 from auv_dock_guidance.sim.monte_carlo import plot
 from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
@@ -32,8 +32,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "the side and 0.5 m above the dock, with the surface reflecting the ring.",
     )
     p.add_argument("--scenario", choices=["clear", "reflection"], default="reflection")
-    p.add_argument("--report", metavar="DIR", help="report folder (default reports/demo-<time>)")
-    p.add_argument("--timeout", type=float, default=100.0, help="give up after this many seconds")
+    p.add_argument("--report", metavar="DIR", type=folder_to_write, help="report folder (default reports/demo-<time>)")
+    p.add_argument("--timeout", type=positive_float, default=100.0, help="give up after this many seconds")
     p.set_defaults(run=run)
 
 

@@ -6,7 +6,15 @@ import argparse
 import os
 from typing import Any
 
-from auv_dock_guidance.cli.common import add_camera_argument, load_camera, positive_float, positive_int, print_json
+from auv_dock_guidance.cli.common import (
+    add_camera_argument,
+    load_camera,
+    positive_float,
+    positive_int,
+    print_json,
+    seed,
+    workers,
+)
 from auv_dock_guidance.cli.progress import Progress
 from auv_dock_guidance.sim.evaluate import (
     edge_comparison,
@@ -31,7 +39,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         "from 2 to 30 m.",
     )
     p.add_argument("--frames", type=positive_int, default=300, help="scenes to render (default %(default)s)")
-    p.add_argument("--seed", type=int, default=1, help="random seed of the scene population (default %(default)s)")
+    p.add_argument("--seed", type=seed, default=1, help="random seed of the scene population (default %(default)s)")
     p.add_argument("--range-sweep", action="store_true", help="detection rate per metre from 2 to 30 m")
     p.add_argument("--plain", action="store_true",
                    help="without the real-world effects (the clean population the paper's figures compare with)")
@@ -41,7 +49,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    help="beam attenuation of the water in the range sweep (default %(default)s /m: a clear pool)")
     p.add_argument("--brightness", type=positive_float, default=3.0,
                    help="LED radiance in the range sweep, in full-scale units (default %(default)s)")
-    p.add_argument("--workers", type=positive_int, default=os.cpu_count() or 1,
+    p.add_argument("--workers", type=workers, default=os.cpu_count() or 1,
                    help="processes rendering in parallel (default: all cores)")
     add_camera_argument(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -54,7 +62,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         "(bilateral + Scharr) on noisy renders whose clean edges are known.",
     )
     e.add_argument("--frames", type=positive_int, default=40, help="scenes (default %(default)s)")
-    e.add_argument("--seed", type=int, default=3, help="random seed (default %(default)s)")
+    e.add_argument("--seed", type=seed, default=3, help="random seed (default %(default)s)")
     add_camera_argument(e)
     e.add_argument("--json", action="store_true", help="print one JSON object")
     e.set_defaults(run=run_edges)

@@ -6,7 +6,7 @@ import argparse
 import time
 from pathlib import Path
 
-from auv_dock_guidance.cli.common import fail, positive_float, print_json, rounded
+from auv_dock_guidance.cli.common import fail, positive_float, print_json, rate_hz, rounded
 from auv_dock_guidance.cli.progress import Progress
 from auv_dock_guidance.sim.link_selftest import run_selftest
 from auv_dock_guidance.sim.main_controller import MainControllerSim
@@ -32,7 +32,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     )
     m.add_argument("--port", metavar="PATH",
                    help="the symbolic link to the pseudo-terminal the bridge opens (default: a temporary one)")
-    m.add_argument("--telemetry-hz", type=positive_float, default=50.0, help="telemetry rate (default %(default)s)")
+    m.add_argument("--telemetry-hz", type=rate_hz, default=50.0, help="telemetry rate (default %(default)s)")
     m.set_defaults(run=run_mock_controller)
 
 

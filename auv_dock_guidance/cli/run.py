@@ -6,7 +6,7 @@ import argparse
 import time
 from pathlib import Path
 
-from auv_dock_guidance.cli.common import fail
+from auv_dock_guidance.cli.common import domain_id, fail
 from auv_dock_guidance.launcher import VISION_COMBINED, VISION_SEPARATE, NodeGroup, ros_environment
 from auv_dock_guidance.resources import config_file
 from auv_dock_guidance.sim.main_controller import MainControllerSim
@@ -28,7 +28,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--port", help="main controller serial port")
     p.add_argument("--mock-controller", action="store_true",
                    help="run the simulated main controller on a pseudo-terminal and arm the bridge")
-    p.add_argument("--domain-id", type=int, help="ROS_DOMAIN_ID for the nodes")
+    p.add_argument("--domain-id", type=domain_id, help="ROS_DOMAIN_ID for the nodes")
     p.add_argument("--network", action="store_true", help="discover beyond localhost (a shore laptop)")
     p.set_defaults(run=run)
 

@@ -9,22 +9,22 @@ import time
 from collections import deque
 from typing import Any
 
-from auv_dock_guidance.cli.common import positive_float
+from auv_dock_guidance.cli.common import domain_id, positive_float, tcp_port
 
 
 def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     m = subparsers.add_parser("monitor", help="live terminal dashboard of a docking run (subscribes only)",
                               description="Guidance state and the last transition, range and bearing, detection "
                               "rate, thruster pulses, link health and diagnostics, with how stale each value is.")
-    m.add_argument("--domain-id", type=int, help="ROS_DOMAIN_ID of the vehicle")
+    m.add_argument("--domain-id", type=domain_id, help="ROS_DOMAIN_ID of the vehicle")
     m.add_argument("--once", type=positive_float, metavar="S", help="listen S seconds, print one snapshot, exit")
     m.set_defaults(run=run_monitor)
     f = subparsers.add_parser("foxglove", help="serve the debug topics to the Foxglove app (WebSocket)",
                               description="Forward the debug topics, as recorded CDR with their ROS 2 schemas, to "
                               "Foxglove over its WebSocket protocol. Open the layout config/foxglove_layout.json.")
-    f.add_argument("--port", type=int, default=8765)
+    f.add_argument("--port", type=tcp_port, default=8765)
     f.add_argument("--host", default="127.0.0.1", help="address to listen on (0.0.0.0 for the boat's network)")
-    f.add_argument("--domain-id", type=int)
+    f.add_argument("--domain-id", type=domain_id)
     f.add_argument("--seconds", type=positive_float, help="stop after this long (default: until Ctrl-C)")
     f.set_defaults(run=run_foxglove)
 

@@ -6,7 +6,15 @@ import argparse
 import os
 from pathlib import Path
 
-from auv_dock_guidance.cli.common import positive_int, print_json
+from auv_dock_guidance.cli.common import (
+    folder_to_write,
+    non_negative_float,
+    positive_int,
+    print_json,
+    rate_hz,
+    seed,
+    workers,
+)
 from auv_dock_guidance.cli.progress import Progress
 from auv_dock_guidance.sim.closed_loop import EpisodeConfig
 from auv_dock_guidance.sim.monte_carlo import plot, run_many, summarize
@@ -21,14 +29,15 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "rendered frames (960x540, scaled intrinsics) against the vehicle dynamics.",
     )
     p.add_argument("--episodes", type=positive_int, default=200)
-    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--seed", type=seed, default=1)
     p.add_argument("--scenario", choices=["clear", "reflection"], default="clear")
-    p.add_argument("--workers", type=positive_int, default=os.cpu_count() or 1)
+    p.add_argument("--workers", type=workers, default=os.cpu_count() or 1)
     p.add_argument("--tracker", action="store_true", help="smooth detections with the Kalman target tracker")
     p.add_argument("--axis-alignment", action="store_true", help="steer onto the dock's axis before the terminal phase")
-    p.add_argument("--current", type=float, default=0.0, metavar="M_S", help="largest random water current (m/s)")
-    p.add_argument("--camera-hz", type=float, default=10.0, help="simulated camera rate (default %(default)s)")
-    p.add_argument("--plots", metavar="DIR", help="write trajectory and bearing plots (PNG) here")
+    p.add_argument("--current", type=non_negative_float, default=0.0, metavar="M_S",
+                   help="largest random water current (m/s)")
+    p.add_argument("--camera-hz", type=rate_hz, default=10.0, help="simulated camera rate (default %(default)s)")
+    p.add_argument("--plots", metavar="DIR", type=folder_to_write, help="write trajectory and bearing plots (PNG) here")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=run)
 
