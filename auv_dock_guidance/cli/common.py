@@ -39,7 +39,7 @@ class Number:
 
     def limits(self) -> str:
         """What the value must be, e.g. "a positive number", "a whole number from 0 to 232"."""
-        positive = self.low == 0 and self.low_open or self.kind is int and self.low == 1 and not self.low_open
+        positive = (self.low == 0 and self.low_open) or (self.kind is int and self.low == 1 and not self.low_open)
         if positive and self.high is None:
             return f"a positive {self.__name__}"
         low = None if self.low is None else f"{'>' if self.low_open else '>='} {self.low:g}"
