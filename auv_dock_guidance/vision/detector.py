@@ -107,6 +107,8 @@ class Detection:
     candidates: int = 0  # regions that passed the gates
     pose: MarkerPose | None = None  # range, offsets and bearing; None without a valid fit
     ring_normal: tuple[float, float, float] | None = None  # dock axis (optical frame), tilt-aware fit
+    fit_sigma: float = math.nan  # standard error of the fitted centre, each coordinate (normalized units)
+    visible_arc_deg: float = 360.0  # how much of the ring's circle the fit saw (less where the frame cuts it)
 
 
 @dataclass
@@ -414,7 +416,9 @@ class Detector:
         if outer_fit is None:  # too little of the outline is usable (image border, lens fold)
             return Detection(u=float(mu), v=float(mv), radius_px=float(mr), **common)
         outer = outer_fit[0]
+        common["fit_sigma"] = outer_fit[1]
         if cut:  # part of a ring tells its bearing, not its tilt: no ring reading
+            common["visible_arc_deg"] = self._cut_shape(region.outer, frame_size)[1]
             return self._circle_detection(outer, common)
         inner, cue_noise = None, 0.0
         if region.hole is not None and is_ring(region.shape, self.config.selection):
@@ -422,6 +426,7 @@ class Detector:
             if inner_fit is not None and inner_fit[0].semi_major < outer.semi_major:
                 inner = inner_fit[0]
                 cue_noise = math.hypot(inner_fit[1], outer_fit[1])
+                common["fit_sigma"] = 0.5 * cue_noise  # the centre line is the mean of the two outlines
         marker_radius = self.config.marker_radius_m
         if inner is None and not region.dotted:  # a solid blob: its outline is all we have
             return self._circle_detection(outer, common)
