@@ -5,7 +5,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from auv_dock_guidance.vision.detector import Detection
+from auv_dock_guidance.vision.detection import Detection
 
 
 def overlay_jpeg(image: np.ndarray, detection: Detection, principal: tuple[float, float], text: str,

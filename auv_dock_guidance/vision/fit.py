@@ -1,0 +1,95 @@
+"""Fit where a circle is a circle: the chosen region's ellipse on the normalized plane, and the
+ring's centre, range and bearing from it.
+
+For a continuous strip an ellipse is fitted to its outer and to its inner outline; their
+mean is the LED centre line, unbiased by halo or threshold. For separate LEDs or arcs the
+ellipse goes through all their outlines. A ring the frame cuts gets a circle through
+what is visible (LED centres, or the strip's outer edge): the bearing that turns the
+vehicle towards it, and a rougher range. The tilt-aware centre comes from
+`geometry/pose.py` (`ring_center_solution`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import cv2
+import numpy as np
+
+from auv_dock_guidance.geometry.camera import CameraModel
+from auv_dock_guidance.geometry.pose import Ellipse, pose_from_circle, pose_from_point, ring_center_solution
+from auv_dock_guidance.vision.config import DetectorConfig
+from auv_dock_guidance.vision.detection import Detection
+from auv_dock_guidance.vision.normalized import center_pixels, cut_shape, fit_ellipse, normalized_points
+from auv_dock_guidance.vision.outline import longest_inner_run, on_border
+from auv_dock_guidance.vision.refine import Region
+from auv_dock_guidance.vision.selection import is_ring
+
+
+def fit_region(region: Region, candidates: int, frame_size: tuple[int, int], camera: CameraModel | None,
+               config: DetectorConfig) -> Detection:
+    """The Detection of the chosen region."""
+    (mu, mv), mr = cv2.minEnclosingCircle(region.outer.astype(np.float32))
+    common: dict[str, Any] = dict(
+        found=True, threshold=region.threshold, candidates=candidates,
+        mec_u=float(mu), mec_v=float(mv), mec_radius_px=float(mr),
+    )
+    cut = bool(on_border(region.outer, frame_size).any())
+    if cut and region.led_centers is not None:  # LED centres lie on the ring itself
+        outer_fit = fit_ellipse(camera, region.led_centers, circle=True)
+    else:
+        outer_fit = fit_ellipse(camera, longest_inner_run(region.outer, frame_size), circle=cut)
+    if outer_fit is None:  # too little of the outline is usable (image border, lens fold)
+        return Detection(u=float(mu), v=float(mv), radius_px=float(mr), **common)
+    outer = outer_fit[0]
+    common["fit_sigma"] = outer_fit[1]
+    marker_radius = config.marker_radius_m
+    if cut:  # part of a ring tells its bearing, not its tilt: no ring reading
+        common["visible_arc_deg"] = cut_shape(camera, region.outer, frame_size)[1]
+        return circle_detection(camera, outer, marker_radius, common)
+    inner, cue_noise = None, 0.0
+    if region.hole is not None and is_ring(region.shape, config.selection):
+        inner_fit = fit_ellipse(camera, region.hole)
+        if inner_fit is not None and inner_fit[0].semi_major < outer.semi_major:
+            inner = inner_fit[0]
+            cue_noise = math.hypot(inner_fit[1], outer_fit[1])
+            common["fit_sigma"] = 0.5 * cue_noise  # the centre line is the mean of the two outlines
+    if inner is None and not region.dotted:  # a solid blob: its outline is all we have
+        return circle_detection(camera, outer, marker_radius, common)
+    if inner is None:  # separate LEDs: their outlines straddle the centre line
+        centre_line = outer
+        solution = ring_center_solution(centre_line, marker_radius,
+                                        led_points=normalized_points(camera, region.led_centers))
+    else:  # a continuous strip: the centre line lies midway between its two outlines
+        centre_line = Ellipse(
+            center_x=0.5 * (outer.center_x + inner.center_x),
+            center_y=0.5 * (outer.center_y + inner.center_y),
+            semi_major=0.5 * (outer.semi_major + inner.semi_major),
+            semi_minor=0.5 * (outer.semi_minor + inner.semi_minor),
+            angle_rad=outer.angle_rad,
+        )
+        solution = ring_center_solution(centre_line, marker_radius, outer, inner, cue_noise)
+    if solution is None:
+        pose = pose_from_circle((centre_line.center_x, centre_line.center_y), centre_line.semi_major, marker_radius)
+        normal = None
+    else:
+        pose = pose_from_point(solution[0])
+        axis = solution[1]
+        normal = None if axis is None else (float(axis[0]), float(axis[1]), float(axis[2]))
+    x, y = pose.offset_x_m / pose.range_m, pose.offset_y_m / pose.range_m
+    u, v, focal = center_pixels(camera, x, y)
+    return Detection(
+        u=u, v=v, radius_px=centre_line.semi_major * focal, is_ring=True, ellipse=centre_line,
+        pose=pose, ring_normal=normal, **common,
+    )
+
+
+def circle_detection(camera: CameraModel | None, outline: Ellipse, marker_radius_m: float,
+                     common: dict[str, Any]) -> Detection:
+    """The paper's reading of an outline: its centre, and the range from its largest radius."""
+    u, v, focal = center_pixels(camera, outline.center_x, outline.center_y)
+    return Detection(
+        u=u, v=v, radius_px=outline.semi_major * focal, ellipse=outline, **common,
+        pose=pose_from_circle((outline.center_x, outline.center_y), outline.semi_major, marker_radius_m),
+    )

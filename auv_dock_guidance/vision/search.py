@@ -1,0 +1,110 @@
+"""Stage 1: where to look. Bright regions on a small copy of the frame, as windows to refine.
+
+The brightest colour channel (an LED of any colour is bright in its own channel), minus
+a local background (a morphological opening wider than the LED strip, so surface light
+gradients and backscatter do not count), cut just above the noise floor and again
+halfway to the brightest light in view, grouped at several gap widths.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import cv2
+import numpy as np
+
+from auv_dock_guidance.vision.config import DetectorConfig
+from auv_dock_guidance.vision.detection import Detection
+from auv_dock_guidance.vision.image_input import intensity
+
+Box = tuple[int, int, int, int]  # x0, y0, x1, y1 in full-resolution pixels
+Window = tuple[Box, float]  # a box to refine and the radius the ring is expected to have in it
+
+
+def search(image: np.ndarray, config: DetectorConfig, lens_scale: float, min_radius_px: float) -> list[Window]:
+    """Bright regions on a small copy: (full-resolution box, radius estimate) each.
+
+    Regions are grouped at several gap widths, so the separate LEDs of a ring come out
+    as one region at the width that bridges their spacing. The light is cut at two
+    levels: just above the noise (faint, far rings) and halfway to the brightest light
+    in view, where the LEDs come apart from dimmer light they touch (a web of caustics,
+    glow on structure) that would otherwise make one region of the whole frame.
+    ``lens_scale`` is the focal length relative to the paper's camera; ``min_radius_px``
+    the smallest ring accepted (full resolution).
+    """
+    c = config
+    lens = lens_scale
+    s = min(1.0, c.search_scale / lens)  # the ring keeps its size in the search copy, whatever the lens
+    small = image if s == 1.0 else cv2.resize(image, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
+    gray = intensity(small)
+    k = c.search_background_px | 1
+    kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (k, k))
+    background = cv2.blur(cv2.morphologyEx(gray, cv2.MORPH_OPEN, kernel), (k, k))
+    tophat = cv2.subtract(gray, background)
+    sample = tophat[::2, ::2]
+    typical = float(np.median(sample))
+    noise = 1.4826 * float(np.median(np.abs(sample.astype(np.float32) - typical)))
+    # Search wide: a low floor finds faint, far rings; the refinement's floor decides.
+    floor = typical + max(c.search_floor_grey, c.search_floor_noise_sigmas * noise)
+    bright = floor + 0.5 * (float(tophat.max()) - floor)
+    h, w = image.shape[:2]
+    min_radius = 0.7 * max(c.selection.min_radius_px, min_radius_px)  # smaller: no ring we accept
+    boxes: list[Window] = []
+    low, high = (cv2.threshold(tophat, level, 255, cv2.THRESH_BINARY)[1] for level in (floor, bright))
+    for mask, gap_px in [*itertools.product([low], c.search_gaps_px), (high, 0), (high, 32)]:
+        kernel_size = int(round(gap_px * lens * s)) | 1
+        grouped = mask if kernel_size <= 1 else cv2.dilate(
+            mask, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (kernel_size, kernel_size))
+        )
+        count, labels, stats, _ = cv2.connectedComponentsWithStats(grouped, connectivity=8)
+        found = []
+        for i in range(1, count):
+            x, y, bw, bh = (int(v) for v in stats[i, :4])
+            x0, y0, x1, y1 = (x - 1) / s, (y - 1) / s, (x + bw + 1) / s, (y + bh + 1) / s
+            radius = max(1.0, 0.5 * max(x1 - x0, y1 - y0) - 0.5 * (kernel_size - 1) / s)
+            if radius >= min_radius:
+                peak = float(tophat[y:y + bh, x:x + bw][labels[y:y + bh, x:x + bw] == i].max())
+                found.append((peak, radius, (x0, y0, x1, y1)))
+        found.sort(reverse=True)  # brightest first: a web of caustics or glow must not crowd the LEDs out
+        for _, radius, (x0, y0, x1, y1) in found[: c.max_candidates]:
+            margin = 0.25 * radius + 12 + 0.5 * kernel_size / s
+            box = (
+                max(0, int(x0 - margin)),
+                max(0, int(y0 - margin)),
+                min(w, int(math.ceil(x1 + margin))),
+                min(h, int(math.ceil(y1 + margin))),
+            )
+            if not _covered(box, radius, boxes):
+                boxes.append((box, radius))
+    return boxes
+
+
+def track_window(image: np.ndarray, last: Detection) -> Window:
+    """A window around the last detection, wide enough for the ring to move between frames."""
+    h, w = image.shape[:2]
+    r = max(last.radius_px, last.mec_radius_px if math.isfinite(last.mec_radius_px) else 0.0)
+    half = 1.5 * r + 24
+    box = (max(0, int(last.u - half)), max(0, int(last.v - half)),
+           min(w, int(math.ceil(last.u + half))), min(h, int(math.ceil(last.v + half))))
+    return box, r
+
+
+def _covered(box: Box, radius: float, boxes: list[Window]) -> bool:
+    """A window adds nothing when another nearly the same, or one at most twice as large that
+    contains it, is already refined."""
+    return any(
+        _overlap(box, other) > 0.7
+        or (other[0] <= box[0] and other[1] <= box[1] and other[2] >= box[2] and other[3] >= box[3]
+            and other_radius <= 2.0 * radius)
+        for other, other_radius in boxes
+    )
+
+
+def _overlap(a: Box, b: Box) -> float:
+    """Intersection over union of two boxes (x0, y0, x1, y1)."""
+    ix = max(0, min(a[2], b[2]) - max(a[0], b[0]))
+    iy = max(0, min(a[3], b[3]) - max(a[1], b[1]))
+    inter = ix * iy
+    union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter
+    return inter / union if union > 0 else 0.0

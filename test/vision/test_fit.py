@@ -1,0 +1,42 @@
+import math
+
+import numpy as np
+import pytest
+
+from auv_dock_guidance.vision.config import DetectorConfig
+from auv_dock_guidance.vision.fit import fit_region
+from auv_dock_guidance.vision.refine import Region
+from auv_dock_guidance.vision.selection import CandidateShape
+
+
+def _circle_px(camera, center_m, radius_m, count=180):
+    t = np.linspace(0, 2 * math.pi, count, endpoint=False)
+    points = np.column_stack([center_m[0] + radius_m * np.cos(t), center_m[1] + radius_m * np.sin(t),
+                              np.full(count, center_m[2])])
+    pixels, valid = camera.project(points)
+    return pixels[valid]
+
+
+def test_a_strips_two_outlines_give_its_centre_line_and_range(camera):
+    center = (0.3, -0.2, 6.0)
+    outer, hole = _circle_px(camera, center, 0.37), _circle_px(camera, center, 0.33)
+    shape = CandidateShape(area_px=1e4, center_v=500, radius_px=100, axis_ratio=1, hole_fraction=0.8, edge_support=1)
+    detection = fit_region(Region(shape, 100.0, outer, hole), 1, (camera.height, camera.width), camera,
+                           DetectorConfig())
+    truth = camera.project(np.array([center]))[0][0]
+    assert detection.found and detection.is_ring
+    assert math.hypot(detection.u - truth[0], detection.v - truth[1]) < 0.5
+    assert detection.pose.range_m == pytest.approx(6.0, rel=0.01)
+
+
+def test_a_ring_the_frame_cuts_gets_the_circle_through_its_visible_leds(camera):
+    center = (1.1, 0.0, 4.0)  # beyond the right edge of the frame in part
+    leds = _circle_px(camera, center, 0.35, count=24)
+    inside = leds[(leds[:, 0] < camera.width - 2)]
+    outline = np.concatenate([inside, [[camera.width - 1, 540.0]]])
+    shape = CandidateShape(area_px=1e4, center_v=540, radius_px=90, axis_ratio=1, hole_fraction=1, edge_support=1)
+    region = Region(shape, 100.0, outline, None, dotted=True, led_centers=inside)
+    detection = fit_region(region, 1, (camera.height, camera.width), camera, DetectorConfig())
+    truth = camera.project(np.array([center]))[0][0]
+    assert math.hypot(detection.u - truth[0], detection.v - truth[1]) < 2.0
+    assert detection.pose.range_m == pytest.approx(4.0, rel=0.03)
