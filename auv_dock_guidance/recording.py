@@ -22,6 +22,8 @@ DEBUG_TOPICS = {
     "dock/target": "geometry_msgs/msg/PointStamped",
     "dock/bearing": "geometry_msgs/msg/Vector3Stamped",
     "dock/detected": "std_msgs/msg/Bool",
+    "dock/pose": "geometry_msgs/msg/PoseWithCovarianceStamped",
+    "dock/marker": "visualization_msgs/msg/Marker",
     "dock/debug_image/compressed": "sensor_msgs/msg/CompressedImage",
     "guidance/state": "std_msgs/msg/String",
     "guidance/transition": "std_msgs/msg/String",

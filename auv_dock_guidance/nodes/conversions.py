@@ -5,13 +5,17 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from builtin_interfaces.msg import Duration as DurationMsg
 from builtin_interfaces.msg import Time as TimeMsg
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import Point, PoseStamped, PoseWithCovarianceStamped
 from sensor_msgs.msg import CameraInfo, Image, Imu
+from std_msgs.msg import Header
+from visualization_msgs.msg import Marker
 
 from auv_dock_guidance.control.cascade import Attitude
 from auv_dock_guidance.geometry.camera import CameraModel
 from auv_dock_guidance.geometry.rotations import navigation_attitude, rep103_quaternion
+from auv_dock_guidance.geometry.uncertainty import DockPose
 from auv_dock_guidance.sim.world import VehiclePose
 from auv_dock_guidance.vision.image_input import image_from_fields
 
@@ -20,9 +24,17 @@ def stamp_seconds(stamp: TimeMsg) -> float:
     return stamp.sec + stamp.nanosec * 1e-9
 
 
-def seconds_stamp(seconds: float) -> TimeMsg:
+def _sec_nanosec(seconds: float) -> dict[str, int]:
     sec = math.floor(seconds)
-    return TimeMsg(sec=int(sec), nanosec=int(round((seconds - sec) * 1e9)) % 1_000_000_000)
+    return {"sec": int(sec), "nanosec": int(round((seconds - sec) * 1e9)) % 1_000_000_000}
+
+
+def seconds_stamp(seconds: float) -> TimeMsg:
+    return TimeMsg(**_sec_nanosec(seconds))
+
+
+def seconds_duration(seconds: float) -> DurationMsg:
+    return DurationMsg(**_sec_nanosec(seconds))
 
 
 def image_to_array(msg: Image) -> np.ndarray:
@@ -102,3 +114,57 @@ def pose_to_vehicle(msg: PoseStamped) -> VehiclePose:
     roll, pitch, yaw = navigation_attitude(q.x, q.y, q.z, q.w)
     p = msg.pose.position
     return VehiclePose(p.x, p.y, p.z, roll, pitch, yaw)
+
+
+def dock_pose_to_msg(pose: DockPose, header: Header) -> PoseWithCovarianceStamped:
+    msg = PoseWithCovarianceStamped()
+    msg.header = header
+    p, q = msg.pose.pose.position, msg.pose.pose.orientation
+    p.x, p.y, p.z = pose.position_m
+    q.x, q.y, q.z, q.w = pose.orientation_xyzw
+    msg.pose.covariance = np.array(pose.covariance, dtype=np.float64)
+    return msg
+
+
+DOCK_MARKER_NAMESPACE = "dock"
+RING_MARKER_ID, AXIS_MARKER_ID = 0, 1
+
+
+def dock_markers(pose: DockPose, marker_radius_m: float, header: Header, lifetime_s: float = 1.0,
+                 axis_length_m: float = 1.0) -> list[Marker]:
+    """The ring (a line strip of its true radius) and the dock axis (an arrow out of the
+    entrance), both placed at the dock's pose; green where the axis was measured, amber
+    where the ring was only seen face-on (its orientation then is the line of sight)."""
+    angles = np.linspace(0.0, 2.0 * math.pi, 49)
+    ring = _marker(pose, header, RING_MARKER_ID, Marker.LINE_STRIP, lifetime_s)
+    ring.points = [Point(x=0.0, y=float(marker_radius_m * math.cos(a)), z=float(marker_radius_m * math.sin(a)))
+                   for a in angles]  # the ring lies in the dock frame's y-z plane
+    ring.scale.x = 0.03  # line width
+    axis = _marker(pose, header, AXIS_MARKER_ID, Marker.ARROW, lifetime_s)
+    axis.points = [Point(), Point(x=float(axis_length_m))]
+    axis.scale.x, axis.scale.y, axis.scale.z = 0.03, 0.08, 0.12  # shaft, head diameter, head length
+    return [ring, axis]
+
+
+def clear_dock_markers(header: Header) -> list[Marker]:
+    """DELETE for the ring and the axis: the dock was lost."""
+    markers = []
+    for marker_id in (RING_MARKER_ID, AXIS_MARKER_ID):
+        marker = Marker()
+        marker.header = header
+        marker.ns, marker.id, marker.action = DOCK_MARKER_NAMESPACE, marker_id, Marker.DELETE
+        markers.append(marker)
+    return markers
+
+
+def _marker(pose: DockPose, header: Header, marker_id: int, kind: int, lifetime_s: float) -> Marker:
+    marker = Marker()
+    marker.header = header
+    marker.ns, marker.id, marker.type, marker.action = DOCK_MARKER_NAMESPACE, marker_id, kind, Marker.ADD
+    p, q = marker.pose.position, marker.pose.orientation
+    p.x, p.y, p.z = pose.position_m
+    q.x, q.y, q.z, q.w = pose.orientation_xyzw
+    marker.color.r, marker.color.g, marker.color.b, marker.color.a = \
+        (0.1, 0.9, 0.3, 1.0) if pose.axis_observed else (1.0, 0.7, 0.1, 1.0)
+    marker.lifetime = seconds_duration(lifetime_s)  # gone on its own if the DELETE is lost
+    return marker

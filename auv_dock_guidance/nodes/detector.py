@@ -3,6 +3,9 @@
 Subscribes  camera/image_raw (sensor_msgs/Image), camera/camera_info (sensor_msgs/CameraInfo)
 Publishes   dock/target (geometry_msgs/PointStamped, metres, camera optical frame),
             dock/bearing (geometry_msgs/Vector3Stamped: x yaw rad, y pitch rad, z range m),
+            dock/pose (geometry_msgs/PoseWithCovarianceStamped, camera optical frame: the ring's
+            centre, x axis along the dock's axis; see geometry/uncertainty.py),
+            dock/marker (visualization_msgs/Marker: the ring and the dock axis; DELETE when lost),
             dock/detected (std_msgs/Bool, every frame),
             dock/debug_image/compressed (sensor_msgs/CompressedImage, JPEG, throttled),
             /diagnostics (diagnostic_msgs/DiagnosticArray, 1 Hz)
@@ -18,14 +21,17 @@ from collections import deque
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from geometry_msgs.msg import PointStamped, Vector3Stamped
+from geometry_msgs.msg import PointStamped, PoseWithCovarianceStamped, Vector3Stamped
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image
-from std_msgs.msg import Bool
+from std_msgs.msg import Bool, Header
+from visualization_msgs.msg import Marker
 
 from auv_dock_guidance.errors import DockGuidanceError
 from auv_dock_guidance.geometry.camera import CameraModel
+from auv_dock_guidance.geometry.pose import MarkerPose
+from auv_dock_guidance.geometry.uncertainty import dock_pose, observation_of
 from auv_dock_guidance.nodes.common import (
     InputProblems,
     Param,
@@ -35,9 +41,16 @@ from auv_dock_guidance.nodes.common import (
     publish_diagnostics,
     run_node,
 )
-from auv_dock_guidance.nodes.conversions import image_to_array, info_to_camera, stamp_seconds
+from auv_dock_guidance.nodes.conversions import (
+    clear_dock_markers,
+    dock_markers,
+    dock_pose_to_msg,
+    image_to_array,
+    info_to_camera,
+    stamp_seconds,
+)
 from auv_dock_guidance.stamps import StampGate
-from auv_dock_guidance.vision.detector import Detector, DetectorConfig
+from auv_dock_guidance.vision.detector import Detection, Detector, DetectorConfig
 from auv_dock_guidance.vision.overlay import overlay_jpeg
 from auv_dock_guidance.vision.selection import SelectionConfig
 from auv_dock_guidance.vision.threshold import ThresholdConfig
@@ -90,6 +103,8 @@ class DetectorNode(Node):
         self.target_pub = self.create_publisher(PointStamped, "dock/target", 10)
         self.bearing_pub = self.create_publisher(Vector3Stamped, "dock/bearing", 10)
         self.detected_pub = self.create_publisher(Bool, "dock/detected", 10)
+        self.pose_pub = self.create_publisher(PoseWithCovarianceStamped, "dock/pose", 10)
+        self.marker_pub = self.create_publisher(Marker, "dock/marker", 10)
         self.debug_pub = self.create_publisher(CompressedImage, "dock/debug_image/compressed", 1)
         self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_timer(1.0, lambda: publish_diagnostics(self, self.diag_pub, self.diagnostics()))
@@ -146,22 +161,48 @@ class DetectorNode(Node):
             return
         elapsed = time.perf_counter() - start
         self._times.append((time.monotonic(), elapsed, detection.found))
+        self.detected_pub.publish(Bool(data=detection.found))
+        pose = detection.pose
+        header = msg.header
+        if header.frame_id == "":
+            header.frame_id = self.detector.camera.frame_id
+        if detection.found and pose is not None:
+            self._publish_position(header, pose)
+            self._publish_dock_pose(header, detection)
         if detection.found != self._found:
             self._found = detection.found
             self.get_logger().info("marker found" if detection.found else f"marker lost: {detection.reason}")
-        self.detected_pub.publish(Bool(data=detection.found))
-        pose = detection.pose
-        if detection.found and pose is not None:
-            target = PointStamped()
-            target.header = msg.header
-            target.header.frame_id = self.detector.camera.frame_id if msg.header.frame_id == "" else msg.header.frame_id
-            target.point.x, target.point.y, target.point.z = pose.offset_x_m, pose.offset_y_m, pose.range_m
-            self.target_pub.publish(target)
-            bearing = Vector3Stamped()
-            bearing.header = target.header
-            bearing.vector.x, bearing.vector.y, bearing.vector.z = pose.yaw_rad, pose.pitch_rad, pose.range_m
-            self.bearing_pub.publish(bearing)
+            if not detection.found:
+                for marker in clear_dock_markers(header):
+                    self.marker_pub.publish(marker)
         self._maybe_publish_debug(msg, frame, detection)
+
+    def _publish_position(self, header: Header, pose: MarkerPose) -> None:
+        target = PointStamped()
+        target.header = header
+        target.point.x, target.point.y, target.point.z = pose.offset_x_m, pose.offset_y_m, pose.range_m
+        self.target_pub.publish(target)
+        bearing = Vector3Stamped()
+        bearing.header = header
+        bearing.vector.x, bearing.vector.y, bearing.vector.z = pose.yaw_rad, pose.pitch_rad, pose.range_m
+        self.bearing_pub.publish(bearing)
+
+    def _publish_dock_pose(self, header: Header, detection: Detection) -> None:
+        """dock/pose with its covariance, and the ring and axis for a 3D panel."""
+        camera = self.detector.camera
+        assert camera is not None  # frames are only processed with a camera model
+        radius = self.config.marker_radius_m
+        observation = observation_of(detection, radius, camera.focal_px, camera.width)
+        if observation is None:
+            return
+        try:
+            pose = dock_pose(observation)
+        except ValueError as exc:  # a fit behind the camera: nothing to publish
+            self.problems.report("dock_pose", str(exc))
+            return
+        self.pose_pub.publish(dock_pose_to_msg(pose, header))
+        for marker in dock_markers(pose, radius, header):
+            self.marker_pub.publish(marker)
 
     def _maybe_publish_debug(self, msg: Image, frame: Any, detection: Any) -> None:
         rate = self.values["debug_image_rate_hz"]

@@ -8,12 +8,14 @@ import sys
 import time
 
 import cv2
+import numpy as np
 import pytest
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import PointStamped
+from geometry_msgs.msg import PointStamped, PoseWithCovarianceStamped
 from sensor_msgs.msg import CompressedImage
 from std_msgs.msg import String
+from visualization_msgs.msg import Marker
 
 from auv_dock_guidance.geometry.camera import paper_camera
 from auv_dock_guidance.launcher import NodeGroup, ros_environment
@@ -26,12 +28,15 @@ EXPECTED_DIAGNOSTICS = {"auv_dock_guidance: detector", "auv_dock_guidance: seria
                         "auv_dock_guidance: camera_ingest"}
 
 
+FAR_M, NEAR_M = (1.0, 0.6, 8.0), (0.5, 0.3, 4.0)  # the dock right of and below the image centre
+
+
 @pytest.fixture(scope="module")
 def frames(tmp_path_factory):
     folder = tmp_path_factory.mktemp("frames")
     camera = paper_camera()
-    for i in range(6):  # the dock right of and below the image centre
-        image, _ = render(camera, SceneSpec(marker_center_m=(1.0, 0.6, 8.0), seed=i))
+    for i in range(6):  # far and near on the same bearing, then once out of view
+        image, _ = render(camera, SceneSpec(marker_center_m=(FAR_M, NEAR_M)[i % 2] if i < 5 else None, seed=i))
         cv2.imwrite(str(folder / f"frame_{i:02d}.png"), image)
     return folder
 
@@ -49,11 +54,13 @@ def test_commands_reach_the_controller_and_follow_the_marker(frames, domain_id, 
     )
     rclpy.init(domain_id=domain_id)
     node = rclpy.create_node("pipeline_test_listener")
-    seen: dict[str, list] = {"debug": [], "diagnostics": [], "state": [], "target": []}
+    seen: dict[str, list] = {"debug": [], "diagnostics": [], "state": [], "target": [], "pose": [], "marker": []}
     node.create_subscription(CompressedImage, "dock/debug_image/compressed", seen["debug"].append, 1)
     node.create_subscription(DiagnosticArray, "/diagnostics", seen["diagnostics"].append, 10)
     node.create_subscription(String, "guidance/state", seen["state"].append, 10)
     node.create_subscription(PointStamped, "dock/target", seen["target"].append, 10)
+    node.create_subscription(PoseWithCovarianceStamped, "dock/pose", seen["pose"].append, 10)
+    node.create_subscription(Marker, "dock/marker", seen["marker"].append, 10)
     group.start()
     try:
         deadline = time.monotonic() + 40.0
@@ -61,7 +68,7 @@ def test_commands_reach_the_controller_and_follow_the_marker(frames, domain_id, 
             rclpy.spin_once(node, timeout_sec=0.1)
             tracking = [s for s in seen["state"] if s.data == "TRACK"]
             if tracking and seen["debug"] and len(seen["target"]) > 5 and _driving(controller) \
-                    and _diagnostic_names(seen) >= EXPECTED_DIAGNOSTICS:
+                    and _diagnostic_names(seen) >= EXPECTED_DIAGNOSTICS and _cleared(seen["marker"]):
                 break
         assert not group.exited(), f"a node died: {group.exited()}"
         monitor = subprocess.run([sys.executable, "-m", "auv_dock_guidance.cli.main", "monitor", "--once", "3"],
@@ -80,6 +87,7 @@ def test_commands_reach_the_controller_and_follow_the_marker(frames, domain_id, 
     assert any(s.data == "TRACK" for s in seen["state"])
     assert seen["target"][-1].point.x > 0 and seen["target"][-1].point.y > 0
     assert bytes(seen["debug"][-1].data[:2]) == b"\xff\xd8"  # a JPEG
+    _check_dock_pose(seen["pose"], seen["marker"])
     assert _diagnostic_names(seen) >= EXPECTED_DIAGNOSTICS
     assert all(code == 0 for code in codes.values()), f"unclean shutdown {codes}; logs: {logs}"
     assert controller.applied == NEUTRAL  # the bridge leaves the thrusters neutral on shutdown
@@ -93,3 +101,34 @@ def _driving(controller: MainControllerSim) -> list:
 
 def _diagnostic_names(seen: dict) -> set[str]:
     return {status.name for array in seen["diagnostics"] for status in array.status}
+
+
+def _cleared(markers: list) -> bool:
+    return any(m.action == Marker.DELETE for m in markers)
+
+
+def _check_dock_pose(poses: list, markers: list) -> None:
+    """dock/pose follows the marker's side and distance, with a covariance that is positive
+    definite and larger far away; dock/marker draws the ring at that pose and is cleared
+    when the dock leaves the view."""
+    assert poses, "no dock/pose"
+    by_range: dict[str, list] = {"near": [], "far": []}
+    for msg in poses:
+        p = msg.pose.pose.position
+        truth = NEAR_M if p.z < 6.0 else FAR_M
+        assert p.x > 0 and p.y > 0, "the dock is right of and below the image centre"
+        assert np.allclose((p.x, p.y, p.z), truth, rtol=0.05, atol=0.02), f"{p} vs {truth}"
+        cov = np.array(msg.pose.covariance).reshape(6, 6)
+        assert np.allclose(cov, cov.T) and np.linalg.eigvalsh(cov).min() > 0
+        by_range["near" if truth is NEAR_M else "far"].append(cov[2, 2])
+        assert msg.header.frame_id == "camera_optical_frame"
+    assert by_range["near"] and by_range["far"], "both distances seen"
+    assert min(by_range["far"]) > max(by_range["near"]), "range variance grows with range"
+    ring = [m for m in markers if m.action == Marker.ADD and m.type == Marker.LINE_STRIP]
+    arrows = [m for m in markers if m.action == Marker.ADD and m.type == Marker.ARROW]
+    assert ring and arrows
+    radii = [np.hypot(q.y, q.z) for q in ring[-1].points]
+    assert np.allclose(radii, 0.35, atol=1e-6) and ring[-1].header.frame_id == "camera_optical_frame"
+    centres = {round(m.pose.position.z) for m in ring}
+    assert centres >= {4, 8}, f"the ring drawn where the dock is: {centres}"
+    assert _cleared(markers), "no DELETE when the dock left the view"
