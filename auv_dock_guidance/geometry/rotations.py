@@ -1,4 +1,4 @@
-"""Euler angles <-> quaternions (x, y, z, w), and the navigation <-> REP 103 attitude convention.
+"""Euler angles <-> quaternions (x, y, z, w) <-> rotation matrices, and the navigation <-> REP 103 attitude convention.
 
 The navigation reports pitch positive nose up and yaw positive turning to starboard;
 REP 103 (x forward, y left, z up) has both the other way round; roll is the same.
@@ -7,6 +7,8 @@ REP 103 (x forward, y left, z up) has both the other way round; roll is the same
 from __future__ import annotations
 
 import math
+
+import numpy as np
 
 
 def quaternion_from_euler(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:
@@ -37,3 +39,29 @@ def navigation_attitude(x: float, y: float, z: float, w: float) -> tuple[float, 
     """(roll, pitch nose up +, yaw to starboard +) of a REP 103 orientation."""
     roll, pitch, yaw = euler_from_quaternion(x, y, z, w)
     return roll, -pitch, -yaw
+
+
+def matrix_from_quaternion(x: float, y: float, z: float, w: float) -> np.ndarray:
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def quaternion_from_matrix(rotation: np.ndarray) -> tuple[float, float, float, float]:
+    """(x, y, z, w) of a rotation matrix (Shepperd's method, stable for every rotation)."""
+    m = rotation
+    trace = float(np.trace(m))
+    if trace > 0:
+        s = 2.0 * math.sqrt(trace + 1.0)
+        q = (m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, 0.25 * s
+    else:
+        i = int(np.argmax(np.diag(m)))
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = 2.0 * math.sqrt(1.0 + m[i, i] - m[j, j] - m[k, k])
+        v = [0.0, 0.0, 0.0]
+        v[i], v[j], v[k] = 0.25 * s, (m[j, i] + m[i, j]) / s, (m[k, i] + m[i, k]) / s
+        q = v[0], v[1], v[2], (m[k, j] - m[j, k]) / s
+    norm = math.sqrt(sum(c * c for c in q))
+    return tuple(float(c / norm) for c in q)  # type: ignore[return-value]

@@ -38,6 +38,7 @@ from typing import Protocol
 import numpy as np
 
 from auv_dock_guidance.geometry.pose import CircleSolution, Ellipse, MarkerPose, circles_from_ellipse
+from auv_dock_guidance.geometry.rotations import quaternion_from_matrix
 
 UNKNOWN_VARIANCE = 1.0e3  # m^2 or rad^2: nothing known (the convention of PoseWithCovariance producers)
 OUTLINE_PX_PER_SAMPLE = 8.0  # outline errors are correlated over a few pixels: one independent sample each
@@ -144,11 +145,11 @@ def dock_pose(observation: RingObservation, noise: MeasurementNoise = Measuremen
     covariance[:3, :3] = position_cov
     if axis is None:
         covariance[3:, 3:] = UNKNOWN_VARIANCE * np.eye(3)
-        orientation = _quaternion(_dock_frame(-center / np.linalg.norm(center)))
+        orientation = quaternion_from_matrix(_dock_frame(-center / np.linalg.norm(center)))
     else:
         across = np.eye(3) - np.outer(axis, axis)  # tilts of the axis; the roll about it is unknown
         covariance[3:, 3:] = axis_variance * across + UNKNOWN_VARIANCE * np.outer(axis, axis)
-        orientation = _quaternion(_dock_frame(axis))
+        orientation = quaternion_from_matrix(_dock_frame(axis))
     return DockPose(
         position_m=(float(center[0]), float(center[1]), z),
         orientation_xyzw=orientation,
@@ -279,21 +280,3 @@ def _dock_frame(axis: np.ndarray) -> np.ndarray:
     z_axis = up - (up @ x_axis) * x_axis
     z_axis /= np.linalg.norm(z_axis)
     return np.column_stack([x_axis, np.cross(z_axis, x_axis), z_axis])
-
-
-def _quaternion(rotation: np.ndarray) -> tuple[float, float, float, float]:
-    """(x, y, z, w) of a rotation matrix (Shepperd's method, stable for every rotation)."""
-    m = rotation
-    trace = float(np.trace(m))
-    if trace > 0:
-        s = 2.0 * math.sqrt(trace + 1.0)
-        q = (m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, 0.25 * s
-    else:
-        i = int(np.argmax(np.diag(m)))
-        j, k = (i + 1) % 3, (i + 2) % 3
-        s = 2.0 * math.sqrt(1.0 + m[i, i] - m[j, j] - m[k, k])
-        v = [0.0, 0.0, 0.0]
-        v[i], v[j], v[k] = 0.25 * s, (m[j, i] + m[i, j]) / s, (m[k, i] + m[i, k]) / s
-        q = v[0], v[1], v[2], (m[k, j] - m[j, k]) / s
-    norm = math.sqrt(sum(c * c for c in q))
-    return tuple(float(c / norm) for c in q)  # type: ignore[return-value]

@@ -21,6 +21,7 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile
 
 from auv_dock_guidance.errors import DockGuidanceError
+from auv_dock_guidance.geometry.mounting import CameraMounting
 
 # guidance/transition is latched: whoever subscribes late (a shore laptop, a recorder) still
 # gets the recent transitions, with the reason for the state the vehicle is in.
@@ -48,6 +49,29 @@ class Param:
             elif isinstance(self.default, float):
                 d.floating_point_range = [FloatingPointRange(from_value=float(self.low), to_value=float(self.high))]
         return d
+
+
+MOUNTING_PARAMS = [
+    Param("camera_mounting.x_m", 0.9, "camera's optical centre ahead of base_link (m)", -20.0, 20.0, read_only=True),
+    Param("camera_mounting.y_m", 0.0, "camera's optical centre left of base_link (m)", -20.0, 20.0, read_only=True),
+    Param("camera_mounting.z_m", 0.0, "camera's optical centre above base_link (m)", -20.0, 20.0, read_only=True),
+    Param("camera_mounting.roll_deg", 0.0, "camera roll about base_link's x (deg, REP 103)", -180.0, 180.0,
+          read_only=True),
+    Param("camera_mounting.pitch_deg", 0.0, "camera pitch (deg, REP 103: positive looks down)", -90.0, 90.0,
+          read_only=True),
+    Param("camera_mounting.yaw_deg", 0.0, "camera yaw (deg, REP 103: positive looks left)", -180.0, 180.0,
+          read_only=True),
+]
+
+
+def camera_mounting(values: dict[str, Any]) -> CameraMounting:
+    """The mounting from MOUNTING_PARAMS' values (base_link -> camera_optical_frame)."""
+    return CameraMounting(
+        x_m=float(values["camera_mounting.x_m"]), y_m=float(values["camera_mounting.y_m"]),
+        z_m=float(values["camera_mounting.z_m"]), roll_rad=math.radians(values["camera_mounting.roll_deg"]),
+        pitch_rad=math.radians(values["camera_mounting.pitch_deg"]),
+        yaw_rad=math.radians(values["camera_mounting.yaw_deg"]),
+    )
 
 
 def declare(node: Node, params: Iterable[Param]) -> dict[str, Any]:

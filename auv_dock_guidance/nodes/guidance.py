@@ -1,5 +1,8 @@
 """guidance node: the dock's position and the vehicle's attitude in, thruster commands out.
 
+The dock comes from the camera; ``camera_mounting.*`` (base_link -> camera optical frame)
+re-expresses it about the vehicle's centre line before it is steered on.
+
 Subscribes  dock/target (geometry_msgs/PointStamped), dock/detected (std_msgs/Bool),
             vehicle/imu (sensor_msgs/Imu), vehicle/depth (std_msgs/Float64), vehicle/docked (std_msgs/Bool)
 Publishes   thrusters/command (std_msgs/UInt16MultiArray: pulse widths in us for
@@ -19,6 +22,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PointStamped, Vector3Stamped
 from rclpy.node import Node
@@ -32,9 +36,11 @@ from auv_dock_guidance.control.mixer import MixerConfig
 from auv_dock_guidance.control.pid import PidGains
 from auv_dock_guidance.errors import DockGuidanceError
 from auv_dock_guidance.nodes.common import (
+    MOUNTING_PARAMS,
     TRANSITION_QOS,
     InputProblems,
     Param,
+    camera_mounting,
     declare,
     diagnostic_status,
     on_parameter_change,
@@ -93,6 +99,7 @@ class GuidanceNode(Node):
     def __init__(self) -> None:
         super().__init__("guidance")
         self.values = declare(self, PARAMS)
+        self.mounting = camera_mounting(declare(self, MOUNTING_PARAMS))
         path = self.values["thrusters_file"]
         self.mixer_config = MixerConfig.from_yaml(path) if path else MixerConfig()
         self.guidance = Guidance(guidance_config(self.values, self.mixer_config))
@@ -168,7 +175,8 @@ class GuidanceNode(Node):
 
     def _on_target(self, msg: PointStamped) -> None:
         p = msg.point
-        self._step(Target(stamp_seconds(msg.header.stamp), p.z, p.x, p.y))
+        forward, right, down = self.mounting.target_about_vehicle(np.array([p.x, p.y, p.z]))
+        self._step(Target(stamp_seconds(msg.header.stamp), forward, right, down))
 
     def _on_timer(self) -> None:
         self._step(None)

@@ -2,9 +2,12 @@
 
 import pytest
 import rclpy
+from geometry_msgs.msg import PointStamped
 from rclpy.exceptions import InvalidParameterValueException
 from rclpy.parameter import Parameter
 
+from auv_dock_guidance.control.cascade import Attitude
+from auv_dock_guidance.nodes.conversions import seconds_stamp
 from auv_dock_guidance.nodes.detector import DetectorNode
 from auv_dock_guidance.nodes.guidance import GuidanceNode
 
@@ -41,5 +44,24 @@ def test_out_of_range_or_non_finite_value_at_start_is_refused(domain_id, value):
     try:
         with pytest.raises(InvalidParameterValueException, match="marker_radius_m out of range"):
             DetectorNode()
+    finally:
+        rclpy.try_shutdown()
+
+
+def test_guidance_steers_the_vehicle_not_the_camera_onto_the_dock(domain_id):
+    """A camera 0.3 m to starboard sees a dock dead ahead of the vehicle 0.3 m to its left."""
+    rclpy.init(domain_id=domain_id, args=["--ros-args", "-p", "camera_mounting.y_m:=-0.3"])
+    try:
+        node = GuidanceNode()
+        now = node.get_clock().now().nanoseconds * 1e-9
+        node._attitude = Attitude(now, 0.0, 0.0, 0.0, 2.0)
+        target = PointStamped()
+        target.header.stamp = seconds_stamp(now)
+        target.point.x, target.point.y, target.point.z = -0.3, 0.0, 6.0
+        node._on_target(target)
+        seen = node.guidance.last_target
+        assert seen is not None
+        assert (seen.range_m, seen.offset_x_m, seen.offset_y_m) == pytest.approx((6.0, 0.0, 0.0), abs=1e-9)
+        node.destroy_node()
     finally:
         rclpy.try_shutdown()
