@@ -31,6 +31,7 @@ scales the range; a guessed principal point shifts the offsets).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Protocol
@@ -185,16 +186,21 @@ def _position_covariance(
     return cov
 
 
+@functools.lru_cache(maxsize=64)
+def _arc_factors_at(arc_deg: int) -> tuple[float, float]:
+    arc = math.radians(arc_deg)
+    angles = arc * ((np.arange(180) + 0.5) / 180 - 0.5)
+    jacobian = np.column_stack([np.cos(angles), np.sin(angles), np.ones_like(angles)])
+    inverse = np.linalg.inv(jacobian.T @ jacobian / len(angles))
+    return float(max(inverse[0, 0], inverse[1, 1])), float(inverse[2, 2])
+
+
 def arc_factors(visible_arc_deg: float) -> tuple[float, float]:
     """(centre, radius) variance of a least-squares circle through points evenly spread on an
     arc, per unit point variance and point: 2 and 1 for the whole circle, growing fast as
     the arc shortens. The centre's is the worse of its two directions (towards the arc's
     middle, where it trades off against the radius)."""
-    arc = math.radians(min(360.0, max(30.0, visible_arc_deg)))
-    angles = arc * ((np.arange(180) + 0.5) / 180 - 0.5)
-    jacobian = np.column_stack([np.cos(angles), np.sin(angles), np.ones_like(angles)])
-    inverse = np.linalg.inv(jacobian.T @ jacobian / len(angles))
-    return float(max(inverse[0, 0], inverse[1, 1])), float(inverse[2, 2])
+    return _arc_factors_at(int(round(min(360.0, max(30.0, visible_arc_deg)))))  # to the degree: cached
 
 
 def _ratio_sigma(observation: RingObservation, radius_n: float) -> float:
@@ -212,24 +218,17 @@ def _ambiguity(solutions: list[CircleSolution]) -> tuple[np.ndarray, float]:
 
 
 def _noise_ambiguity(ellipse: Ellipse, marker_radius_m: float, ratio_sigma: float) -> tuple[float, float]:
-    """What outline noise alone adds to the squares of ``_ambiguity``'s distance and angle.
+    """What outline noise alone makes of the squares of ``_ambiguity``'s distance and angle.
 
     Noise flattens a fitted circle by a two-component vector with ``ratio_sigma`` in each,
-    and any flattening separates the two poses. Measured on the circle of the same centre
-    and size, flattened by the noise's typical amount in directions all round.
+    and any flattening separates the two poses. Measured on a circle of the same size seen
+    head-on, flattened by the noise's typical amount (its direction does not matter there).
     """
     radius = math.sqrt(ellipse.semi_major * ellipse.semi_minor)
-    circle = Ellipse(ellipse.center_x, ellipse.center_y, radius, radius, 0.0)
-    half, angle = _ambiguity(circles_from_ellipse(circle, marker_radius_m))
     flattening = min(0.5, math.sqrt(2.0) * ratio_sigma)
-    distances, angles = [], []
-    for direction in np.linspace(0.0, math.pi, 8, endpoint=False):
-        flat = Ellipse(ellipse.center_x, ellipse.center_y, radius * (1 + flattening / 2),
-                       radius * (1 - flattening / 2), float(direction))
-        noisy_half, noisy_angle = _ambiguity(circles_from_ellipse(flat, marker_radius_m))
-        distances.append(float(noisy_half @ noisy_half))
-        angles.append(noisy_angle**2)
-    return max(0.0, float(np.mean(distances)) - float(half @ half)), max(0.0, float(np.mean(angles)) - angle**2)
+    flat = Ellipse(0.0, 0.0, radius * (1 + flattening / 2), radius * (1 - flattening / 2), 0.0)
+    half, angle = _ambiguity(circles_from_ellipse(flat, marker_radius_m))
+    return float(half @ half), angle**2
 
 
 def _axis(observation: RingObservation, position_cov: np.ndarray,

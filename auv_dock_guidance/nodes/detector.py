@@ -188,7 +188,9 @@ class DetectorNode(Node):
         self.bearing_pub.publish(bearing)
 
     def _publish_dock_pose(self, header: Header, detection: Detection) -> None:
-        """dock/pose with its covariance, and the ring and axis for a 3D panel."""
+        """dock/pose with its covariance, and the ring and axis for a 3D panel (while anyone listens)."""
+        if self.pose_pub.get_subscription_count() == 0 and self.marker_pub.get_subscription_count() == 0:
+            return
         camera = self.detector.camera
         assert camera is not None  # frames are only processed with a camera model
         radius = self.config.marker_radius_m
