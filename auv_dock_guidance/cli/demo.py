@@ -20,6 +20,7 @@ from typing import Any
 from auv_dock_guidance.cli.common import fail, folder_to_write, positive_float
 from auv_dock_guidance.sim.closed_loop import EpisodeResult, entry_outcome
 from auv_dock_guidance.sim.monte_carlo import plot
+from auv_dock_guidance.sim.report import OverlayFrame, distance_along, write_run_pictures
 from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
 
 
@@ -40,6 +41,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     import rclpy
     from geometry_msgs.msg import Vector3Stamped
+    from sensor_msgs.msg import CompressedImage
     from std_msgs.msg import String
 
     from auv_dock_guidance.nodes.common import TRANSITION_QOS
@@ -56,11 +58,16 @@ def run(args: argparse.Namespace) -> int:
     node, vehicle = system.node, system.vehicle
     seen: dict[str, Any] = {"state": "starting", "bearing": None}
 
+    states: list[tuple[float, str]] = []  # (s from the start, state entered)
+
     def on_state(m: String) -> None:
         seen["state"] = m.data
+        if not states:  # the state guidance started in
+            states.append((time.monotonic() - t0, m.data))
 
     def on_transition(m: String) -> None:
         print(f"  guidance: {m.data}", flush=True)
+        states.append((time.monotonic() - t0, m.data.split(":", 1)[0].split("->")[-1].strip()))
 
     node.create_subscription(String, "guidance/state", on_state, 10)
     node.create_subscription(String, "guidance/transition", on_transition, TRANSITION_QOS)
@@ -72,11 +79,18 @@ def run(args: argparse.Namespace) -> int:
         bearings.append((time.monotonic() - t0, math.degrees(m.vector.x), math.degrees(m.vector.y)))
 
     node.create_subscription(Vector3Stamped, "dock/bearing", on_bearing, 10)
+    overlays: list[OverlayFrame] = []  # what the shore sees: the detector's debug image
+
+    def on_overlay(m: CompressedImage) -> None:
+        overlays.append(OverlayFrame(time.monotonic() - t0, bytes(m.data)))
+
+    node.create_subscription(CompressedImage, "dock/debug_image/compressed", on_overlay, 10)
     recorder = BagRecorder(node, report / "debug_bag", DEBUG_TOPICS)
+    system.record_transforms(recorder)
     system.start()
     print(f"demo: {args.scenario} pool, vehicle 12 m out, 1 m to the side, 0.5 m above the dock; report in {report}",
           flush=True)
-    trajectory: list[tuple[float, float, float, float, float]] = []
+    trajectory: list[tuple[float, float, float, float, float]] = []  # t, nose x, y, z, yaw
     outcome = "timeout"
     lateral: float | None = None  # entry errors, once the nose crosses the entrance plane
     heading: float | None = None
@@ -85,7 +99,8 @@ def run(args: argparse.Namespace) -> int:
         while (elapsed := time.monotonic() - t0) < args.timeout:
             rclpy.spin_once(node, timeout_sec=0.05)
             p = vehicle.pose
-            trajectory.append((elapsed, p.x, p.y, p.z, p.yaw))
+            nose = world.camera_position(p)
+            trajectory.append((elapsed, float(nose[0]), float(nose[1]), float(nose[2]), p.yaw))
             if elapsed - last_print >= 2.0:
                 last_print = elapsed
                 b = seen["bearing"]
@@ -108,8 +123,11 @@ def run(args: argparse.Namespace) -> int:
     recorder.close()
     codes = system.stop()
     result = EpisodeResult(0, outcome == "docked", outcome, duration, lateral, heading, None,
-                           trajectory[::5], bearings, [])
+                           trajectory[::5] + trajectory[-1:], bearings, states)
     plots = plot([result], report, world.dock_x_m, world.dock_depth_m, world.entrance_radius_m, title="demo")
+    plots += write_run_pictures(report, overlays, states, (bearings[0][0], bearings[-1][0]) if bearings else None,
+                                distance_along(trajectory, world.dock_x_m), lateral is not None,
+                                title=f"demo ({args.scenario} pool): what the camera saw, with the detector's overlay")
     summary = {
         "outcome": outcome, "docked": outcome == "docked", "time_s": round(duration, 2),
         "entry_lateral_error_m": lateral, "entry_heading_error_deg": heading, "scenario": args.scenario,

@@ -72,9 +72,15 @@ def summarize(results: list[EpisodeResult]) -> dict[str, Any]:
     }
 
 
+STATE_MARKS_UP_TO = 10  # episodes: beyond this the plot marks no states (it would be a blur of dots)
+STATE_STYLES = {"SEARCH": ("o", "tab:gray"), "TRACK": ("s", "tab:blue"), "TERMINAL": ("^", "tab:orange"),
+                "DOCKED": ("*", "tab:green"), "ABORT": ("X", "tab:red")}
+
+
 def plot(results: list[EpisodeResult], folder: Path, dock_x: float = 28.0, dock_depth: float = 2.0,
          entrance_radius: float = 0.35, title: str = "") -> list[Path]:
-    """Top and side views of every trajectory, and the bearing errors over time, as PNG."""
+    """Top and side views of every trajectory (of the nose, up to the entrance plane), with
+    where each guidance state began when there are few, and the bearings over time, as PNG."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -86,10 +92,15 @@ def plot(results: list[EpisodeResult], folder: Path, dock_x: float = 28.0, dock_
                                               "side": (3, "z (m, up +)", -dock_depth)}.items():
         fig, ax = plt.subplots(figsize=(9, 3.6))
         for r in results:
-            track = np.array([(p[1], p[index]) for p in r.trajectory])
+            track = np.array([(p[0], p[1], p[index]) for p in r.trajectory])
             if len(track):
-                ax.plot(track[:, 0], track[:, 1], color="tab:green" if r.success else "tab:red", lw=0.8, alpha=0.7)
+                ax.plot(track[:, 1], track[:, 2], color="tab:green" if r.success else "tab:red", lw=0.8, alpha=0.7)
+                if len(results) <= STATE_MARKS_UP_TO:
+                    _mark_states(ax, track, r.states)
+        ax.axvline(dock_x, color="0.6", lw=0.8, ls="--", label="entrance plane")
         ax.plot([dock_x, dock_x], [dock_value - entrance_radius, dock_value + entrance_radius], color="k", lw=3)
+        if len(results) <= STATE_MARKS_UP_TO:
+            ax.legend(fontsize=7, loc="best")
         ax.set_xlabel("x along the pool (m)")
         ax.set_ylabel(label)
         ax.set_title(f"{title} {view} view: green docked, red failed".strip())
@@ -117,3 +128,17 @@ def plot(results: list[EpisodeResult], folder: Path, dock_x: float = 28.0, dock_
     plt.close(fig)
     paths.append(path)
     return paths
+
+
+def _mark_states(ax: Any, track: np.ndarray, states: list[tuple[float, str]]) -> None:
+    """A marker where each state began, on a (t, along, across) track; each state in the legend once."""
+    labelled = set(ax.get_legend_handles_labels()[1])
+    for t, state in states:
+        if not track[0, 0] <= t <= track[-1, 0]:
+            continue
+        along = float(np.interp(t, track[:, 0], track[:, 1]))
+        across = float(np.interp(t, track[:, 0], track[:, 2]))
+        marker, color = STATE_STYLES.get(state, ("D", "k"))
+        label = None if state in labelled else state
+        labelled.add(state)
+        ax.plot([along], [across], marker=marker, color=color, ms=7, ls="none", label=label, zorder=3)

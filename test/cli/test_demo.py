@@ -2,6 +2,8 @@
 
 import json
 
+from PIL import Image
+
 from auv_dock_guidance.cli.main import main
 
 
@@ -15,6 +17,9 @@ def test_demo_docks_and_writes_its_report(tmp_path, capsys):
     assert summary["messages"]["/thrusters/command"] > 100
     assert summary["messages"]["/dock/debug_image/compressed"] > 0
     assert all(code == 0 for code in summary["node_exit_codes"].values())
-    for name in ("trajectories_top.png", "trajectories_side.png", "bearing_errors.png"):
+    for name in ("trajectories_top.png", "trajectories_side.png", "bearing_errors.png", "camera_strip.png"):
         assert (report / name).stat().st_size > 1000
+    with Image.open(report / "approach.gif") as animation:
+        assert animation.n_frames > 20  # the overlay, twice a second, over the whole approach
+    assert str(report / "camera_strip.png") in summary["plots"]
     assert any((report / "debug_bag").glob("*.mcap"))
