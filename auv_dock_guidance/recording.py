@@ -8,7 +8,9 @@ and serialized again; rosbags writes the message definitions, so Foxglove and
 from __future__ import annotations
 
 import threading
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -51,6 +53,16 @@ def message_class(msgtype: str) -> type:
     return getattr(module, name)
 
 
+@dataclass(frozen=True)
+class FrameTransform:
+    """Where ``child`` is in ``parent``: translation (m) and rotation (x, y, z, w)."""
+
+    parent: str
+    child: str
+    translation_m: tuple[float, float, float]
+    rotation_xyzw: tuple[float, float, float, float]
+
+
 class BagRecorder:
     def __init__(self, node: Node, path: Path, topics: dict[str, str], storage: str = "mcap") -> None:
         if path.exists():
@@ -63,6 +75,8 @@ class BagRecorder:
         self.counts: dict[str, int] = {}
         self.bytes: dict[str, int] = {}
         typestore = get_typestore(Stores.ROS2_JAZZY)
+        self._typestore = typestore
+        self._tf_connections: dict[str, Any] = {}
         self._subscriptions = []
         for topic, msgtype in topics.items():
             name = topic if topic.startswith("/") else f"/{topic}"
@@ -82,6 +96,31 @@ class BagRecorder:
                     self.counts[name] += 1
                     self.bytes[name] += len(data)
         return write
+
+    def write_transforms(self, transforms: list[FrameTransform], stamp_ns: int, static: bool = False) -> None:
+        """Transforms on /tf (or /tf_static) as tf2_msgs/TFMessage, written by rosbags: the
+        PyPI wheels have no tf2_msgs to publish them live, but a bag played in Foxglove or
+        RViz shows the frames all the same."""
+        topic = "/tf_static" if static else "/tf"
+        ts = self._typestore
+        types = ts.types
+        stamp = types["builtin_interfaces/msg/Time"](sec=stamp_ns // 1_000_000_000, nanosec=stamp_ns % 1_000_000_000)
+        message = types["tf2_msgs/msg/TFMessage"](transforms=[
+            types["geometry_msgs/msg/TransformStamped"](
+                header=types["std_msgs/msg/Header"](stamp=stamp, frame_id=t.parent),
+                child_frame_id=t.child,
+                transform=types["geometry_msgs/msg/Transform"](
+                    translation=types["geometry_msgs/msg/Vector3"](*(float(v) for v in t.translation_m)),
+                    rotation=types["geometry_msgs/msg/Quaternion"](*(float(v) for v in t.rotation_xyzw))))
+            for t in transforms])
+        data = bytes(ts.serialize_cdr(message, "tf2_msgs/msg/TFMessage"))
+        with self._lock:
+            if self._closed:
+                return
+            if topic not in self._tf_connections:
+                self._tf_connections[topic] = self._writer.add_connection(topic, "tf2_msgs/msg/TFMessage",
+                                                                          typestore=ts)
+            self._writer.write(self._tf_connections[topic], stamp_ns, data)
 
     def close(self) -> None:
         with self._lock:

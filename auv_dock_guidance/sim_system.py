@@ -17,11 +17,16 @@ import rclpy
 from geometry_msgs.msg import PoseStamped
 from std_srvs.srv import Trigger
 
+from auv_dock_guidance.geometry.mounting import CameraMounting
+from auv_dock_guidance.geometry.rotations import rep103_quaternion
 from auv_dock_guidance.launcher import VISION_COMBINED, NodeGroup, ros_environment
 from auv_dock_guidance.nodes.conversions import seconds_stamp, vehicle_to_pose
+from auv_dock_guidance.recording import BagRecorder, FrameTransform
 from auv_dock_guidance.sim.main_controller import MainControllerSim
 from auv_dock_guidance.sim.vehicle import AuvDynamics
 from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
+
+WORLD_FRAME = "pool"  # the simulated pool (REP 103: x along the pool towards the dock, y left, z up)
 
 
 class SimulatedSystem:
@@ -66,6 +71,25 @@ class SimulatedSystem:
             end = time.monotonic() + 2.0
             while not future.done() and time.monotonic() < end:
                 rclpy.spin_once(self.node, timeout_sec=0.05)
+
+    def record_transforms(self, recorder: BagRecorder, rate_hz: float = 10.0) -> None:
+        """The frames into the recorder's bag: base_link -> camera_optical_frame (the camera on
+        the nose, as /tf_static) once, and pool -> base_link (the simulated vehicle, /tf) at
+        ``rate_hz``, so a 3D panel shows the vehicle, its camera and the dock it saw."""
+        mounting = CameraMounting(x_m=self.world.camera_offset_m)
+        now = self.node.get_clock().now
+        recorder.write_transforms([FrameTransform(mounting.parent_frame, mounting.optical_frame,
+                                                  (mounting.x_m, mounting.y_m, mounting.z_m),
+                                                  mounting.transform_quaternion())],
+                                  now().nanoseconds, static=True)
+
+        def vehicle() -> None:
+            p = self.vehicle.pose
+            recorder.write_transforms([FrameTransform(WORLD_FRAME, mounting.parent_frame, (p.x, p.y, p.z),
+                                                      rep103_quaternion(p.roll, p.pitch, p.yaw))],
+                                      now().nanoseconds)
+
+        self.node.create_timer(1.0 / rate_hz, vehicle)
 
     def nose_past_dock(self) -> bool:
         return bool(self.world.camera_position(self.vehicle.pose)[0] >= self.world.dock_x_m)
