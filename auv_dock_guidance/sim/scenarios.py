@@ -18,6 +18,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from auv_dock_guidance.geometry.camera import PAPER_FOCAL_PX, CameraModel
+from auv_dock_guidance.sim.dock_body import Funnel
 from auv_dock_guidance.sim.scene import Lamp, SceneSpec
 
 _LED_COLOURS = (
@@ -27,6 +28,16 @@ _LED_COLOURS = (
     (1.0, 1.0, 0.9),  # white
 )
 _WATER_COLOURS = ((0.85, 0.65, 0.25), (0.6, 0.8, 0.35), (0.9, 0.55, 0.2), (0.55, 0.7, 0.5))
+# Real LEDs seen through a colour camera: a blue LED excites the green and red pixels a
+# little (so its clipped core is white) and its halo stays deep blue.
+_BLOOMING_LED_COLOURS = (
+    (1.0, 0.18, 0.03),  # blue
+    (1.0, 0.55, 0.08),  # cyan-blue
+    (0.2, 1.0, 0.25),  # green
+    (1.0, 1.0, 0.95),  # white
+)
+# Pool and coastal water, often green and hazy: yellow-green, green, grey-green, blue-green.
+_GREEN_WATER_COLOURS = ((0.3, 0.9, 0.85), (0.45, 0.95, 0.7), (0.8, 0.95, 0.9), (0.85, 0.8, 0.5))
 
 
 @dataclass(frozen=True)
@@ -166,4 +177,67 @@ def _glints(camera: CameraModel, rng: np.random.Generator, count: int) -> tuple[
         Lamp(rng.uniform(0, camera.width), rng.uniform(0, camera.height), size * rng.uniform(0.5, 2.0),
              rng.uniform(0.2, 1.5))
         for _ in range(count)
+    )
+
+
+def dock_look(rng: np.random.Generator) -> SceneSpec:
+    """How one real-looking dock and its water look for a whole episode (geometry left to the caller).
+
+    Half of the docks carry 6-12 discrete LEDs that bloom (saturated white cores, halos
+    of the LED's colour several pixels wide) just outside a lit white funnel with dark
+    vanes and a hub; the others a continuous strip, around a funnel in half of them. The
+    water is drawn too: attenuation, haze, colour. The caller sets marker_center_m,
+    marker_normal, marker_radius_m, the surface and the seed per frame (PoolWorld.scene_for
+    does).
+    """
+    attenuation = rng.uniform(0.05, 0.2)
+    spec = SceneSpec(
+        strip_width_m=rng.uniform(0.015, 0.04),
+        attenuation_per_m=attenuation,
+        halo_fraction_per_m=rng.uniform(0.1, 0.6) * attenuation * 0.6,
+        halo_sigma_rad=rng.uniform(0.006, 0.03),
+        backscatter=rng.uniform(0.02, 0.3),
+        ambient_top=rng.uniform(0.05, 0.35),
+        ambient_bottom=rng.uniform(0.01, 0.1),
+        water_bgr=_GREEN_WATER_COLOURS[rng.integers(len(_GREEN_WATER_COLOURS))],
+        read_noise=rng.uniform(1.0, 4.0),
+        shot_noise=rng.uniform(0.3, 1.0),
+        led_spread=float(rng.uniform(0.0, 0.3)),
+    )
+    discrete = rng.uniform() < 0.5
+    funnel = _funnel(rng) if discrete or rng.uniform() < 0.5 else None
+    if discrete:
+        return replace(
+            spec,
+            led_count=int(rng.integers(6, 13)),
+            led_bgr=_BLOOMING_LED_COLOURS[rng.integers(len(_BLOOMING_LED_COLOURS))],
+            brightness=float(np.exp(rng.uniform(np.log(150.0), np.log(3000.0)))),
+            led_psf_tail=rng.uniform(0.1, 0.4),
+            led_psf_tail_rad=float(np.exp(rng.uniform(np.log(0.005), np.log(0.03)))),
+            funnel=funnel,
+        )
+    return replace(
+        spec,
+        led_count=0,
+        led_bgr=_LED_COLOURS[rng.integers(len(_LED_COLOURS))],
+        brightness=float(np.exp(rng.uniform(np.log(2.0), np.log(20.0)))),
+        funnel=funnel,
+    )
+
+
+def _funnel(rng: np.random.Generator) -> Funnel:
+    """A dock's funnel: from dim grey to brighter than the sensor takes, vanes or none."""
+    return Funnel(
+        rim_share=1.0 / rng.uniform(1.04, 1.15),  # the LEDs sit just outside the rim
+        brightness=float(np.exp(rng.uniform(np.log(0.3), np.log(3.0)))),
+        bgr=(1.0, 1.0, rng.uniform(0.8, 1.0)),
+        shading=rng.uniform(0.2, 0.7),
+        shading_angle_rad=rng.uniform(0, 2 * math.pi),
+        vanes=int(rng.choice([0, 3, 3, 4])),
+        vane_angle_rad=rng.uniform(0, 2 * math.pi),
+        vane_width_share=rng.uniform(0.05, 0.16),
+        hub_share=rng.uniform(0.12, 0.3),
+        depth_share=rng.uniform(0.3, 1.0),
+        dark=rng.uniform(0.01, 0.1),
+        rim_brightness=float(rng.choice([0.0, rng.uniform(0.2, 0.8)])),
     )

@@ -7,8 +7,12 @@ the surface, a mirrored copy of the ring in the surface (rippled, similar bright
 lamps and glints, motion blur and sensor noise. What real docks and pools add is there
 too, off by default: LEDs of uneven brightness and dead ones, light thrown on the dock's
 funnel inside the ring, out-of-focus structure (floor, walls, the dock's frame), sunlight
-caustics, particles, lens vignetting and JPEG recording. Everything is drawn from a
-seeded generator, so a (spec, seed) pair is one exact image.
+caustics, particles, lens vignetting and JPEG recording. And what real docks look like on
+real video, also off by default: LEDs that bloom (a point-spread function with a wide
+tail on a sensor that clips: white cores, coloured halos that merge), a lit white funnel
+with dark vanes and a hub inside the ring, pool walls with tiles, stains and ring-shaped
+fixtures, and a PAL video chain (colour bleed, interlace, blanking, MPEG/JPEG blocks).
+Everything is drawn from a seeded generator, so a (spec, seed) pair is one exact image.
 
 Geometry is given in the camera optical frame (x right, y down, z forward, metres).
 """
@@ -23,6 +27,11 @@ import cv2
 import numpy as np
 
 from auv_dock_guidance.geometry.camera import CameraModel
+from auv_dock_guidance.sim.background import PoolWalls, background_structure
+from auv_dock_guidance.sim.dock_body import BodyLayer, Funnel, draw_funnel
+from auv_dock_guidance.sim.glare import Glare
+from auv_dock_guidance.sim.ring_geometry import mirror_in_surface, ring_points
+from auv_dock_guidance.sim.video import VideoRecording, record
 
 _SHIFT = 4  # fixed-point bits for sub-pixel drawing
 _SCALE = 1 << _SHIFT
@@ -73,44 +82,55 @@ class SceneSpec:
     particles: int = 0  # marine snow and bubbles lit by the LEDs and the surface
     vignetting: float = 0.0  # share of the light lost in the image corners
     jpeg_quality: int = 0  # 0: raw frames; otherwise recorded as JPEG at this quality
+    led_psf_tail: float = 0.0  # share of each LED's and lamp's light in a wide glare tail (0: no blooming)
+    led_psf_tail_rad: float = 0.004  # angular scale of that tail (its Moffat core width)
+    funnel: Funnel | None = None  # the dock's lit funnel inside the ring
+    walls: PoolWalls | None = None  # tiles, stains, fixtures and tethers behind the dock
+    video: VideoRecording | None = None  # analogue video chain the frame went through
     seed: int = 0
 
 
 @dataclass(frozen=True)
 class GroundTruth:
-    """Where the marker really is; None fields when it is not in view."""
+    """Where the marker really is; None fields when no part of it is in view.
 
-    marker_visible: bool
+    The centre is given whenever some of the ring is in view, also when the frame cuts
+    the ring and the centre itself lies outside the image.
+    """
+
+    marker_visible: bool  # some of the ring is in the frame
     center_px: tuple[float, float] | None  # projection of the ring centre (distorted pixels)
     radius_px: float | None  # f * R / z
     position_m: tuple[float, float, float] | None
     reflection_center_px: tuple[float, float] | None
+    share_in_view: float = 0.0  # share of the ring's circumference inside the frame (blanking excluded)
+    leds_in_view: int = 0  # discrete LEDs inside the frame
+
+    @property
+    def view(self) -> str:
+        """'whole', 'cut' (half of the ring or more in view), 'corner' (less) or 'none'."""
+        if not self.marker_visible:
+            return "none"
+        if self.share_in_view >= 1.0:
+            return "whole"
+        return "cut" if self.share_in_view >= 0.5 else "corner"
 
 
-def ring_points(center: np.ndarray, normal: np.ndarray, radius: float, count: int) -> np.ndarray:
-    """Points on a 3-D circle, (count, 3)."""
-    normal = normal / np.linalg.norm(normal)
-    helper = np.array([0.0, 1.0, 0.0]) if abs(normal[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    e1 = np.cross(normal, helper)
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(normal, e1)
-    t = np.linspace(0.0, 2.0 * math.pi, count, endpoint=False)
-    return center + radius * (np.outer(np.cos(t), e1) + np.outer(np.sin(t), e2))
-
-
-def mirror_in_surface(points: np.ndarray, up: np.ndarray, height: float) -> np.ndarray:
-    """Reflect points in the plane up . X = height (the water surface seen from below)."""
-    up = up / np.linalg.norm(up)
-    return points + 2.0 * (height - points @ up)[:, None] * up
+_VIEW_SAMPLES = 720  # points on the ring that decide its share in view
 
 
 def ground_truth(camera: CameraModel, spec: SceneSpec) -> GroundTruth:
     if spec.marker_center_m is None:
         return GroundTruth(False, None, None, None, None)
     center = np.array(spec.marker_center_m, dtype=float)
+    normal = np.array(spec.marker_normal, dtype=float)
+    share = float(_in_frame(camera, spec, ring_points(center, normal, spec.marker_radius_m, _VIEW_SAMPLES)).mean())
+    leds = 0
+    if spec.led_count > 0:
+        leds = int(_in_frame(camera, spec, ring_points(center, normal, spec.marker_radius_m, spec.led_count)).sum())
     pix, valid = camera.project(center[None])
     u, v = (float(x) for x in pix[0])
-    inside = bool(valid[0]) and 0 <= u < camera.width and 0 <= v < camera.height
+    inside = bool(valid[0]) and share > 0.0
     reflection = None
     if spec.surface_height_m is not None:
         mirrored = mirror_in_surface(center[None], np.array(spec.surface_up), spec.surface_height_m)
@@ -123,7 +143,16 @@ def ground_truth(camera: CameraModel, spec: SceneSpec) -> GroundTruth:
         radius_px=camera.focal_px * spec.marker_radius_m / center[2] if inside else None,
         position_m=(float(center[0]), float(center[1]), float(center[2])),
         reflection_center_px=reflection,
+        share_in_view=share,
+        leds_in_view=leds,
     )
+
+
+def _in_frame(camera: CameraModel, spec: SceneSpec, points: np.ndarray) -> np.ndarray:
+    """Which 3-D points the camera images inside the frame (left of any blanking is outside)."""
+    pix, valid = camera.project(points)
+    left = spec.video.letterbox_px if spec.video is not None else 0
+    return valid & (pix[:, 0] >= left) & (pix[:, 0] < camera.width) & (pix[:, 1] >= 0) & (pix[:, 1] < camera.height)
 
 
 def render(camera: CameraModel, spec: SceneSpec) -> tuple[np.ndarray, GroundTruth]:
@@ -131,24 +160,32 @@ def render(camera: CameraModel, spec: SceneSpec) -> tuple[np.ndarray, GroundTrut
     rng = np.random.default_rng(spec.seed)
     h, w = camera.height, camera.width
     light = np.zeros((h, w), np.float32)
+    glare = None
+    if spec.led_psf_tail > 0:
+        glare = Glare((h, w), spec.led_psf_tail, camera.focal_px * spec.led_psf_tail_rad, 0.3 * max(h, w))
+    body = BodyLayer.empty(h, w, spec.funnel.bgr) if spec.funnel is not None else None
     if spec.marker_center_m is not None:
         center = np.array(spec.marker_center_m, dtype=float)
         normal = np.array(spec.marker_normal, dtype=float)
         leds = _led_pattern(spec, rng)
-        _draw_ring(camera, spec, light, center, normal, 1.0, rng, 0.0, leds)
+        _draw_ring(camera, spec, light, center, normal, 1.0, rng, 0.0, leds, glare, body, True)
         if spec.surface_height_m is not None:
             up = np.array(spec.surface_up, dtype=float)
             m_center = mirror_in_surface(center[None], up, spec.surface_height_m)[0]
             m_normal = normal - 2.0 * (normal @ up) * up / (up @ up)
             _draw_ring(camera, spec, light, m_center, m_normal, spec.reflection_gain, rng, spec.ripple_m,
-                       leds[::-1])  # a mirror shows the ring's top at the bottom
+                       leds[::-1], glare, body, False)  # a mirror shows the ring's top at the bottom
     for lamp in spec.lamps:
-        _draw_disc(light, lamp.u, lamp.v, lamp.radius_px, lamp.gain)
+        _draw_point(light, glare, lamp.u, lamp.v, lamp.radius_px, lamp.gain)
     for _ in range(spec.particles):  # far ones are specks; near the lens, dim out-of-focus discs
         radius = float(np.exp(rng.uniform(np.log(0.5), np.log(6.0))))
         _draw_disc(light, rng.uniform(0, w), rng.uniform(0, h), radius, rng.uniform(0.03, 0.4) / max(1.0, radius))
+    if glare is not None:
+        glare.finish(light)
     light = _apply_optics(camera, spec, light)
-    image = _compose(camera, spec, light, rng)
+    image = _compose(camera, spec, light, body, rng)
+    if spec.video is not None:
+        image = record(image, spec.video)
     if spec.jpeg_quality:
         encoded = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, int(spec.jpeg_quality)])[1]
         decoded = cv2.imdecode(encoded, cv2.IMREAD_COLOR)
@@ -195,8 +232,11 @@ def _draw_ring(
     rng: np.random.Generator,
     ripple: float,
     leds: np.ndarray,
+    glare: Glare | None,
+    body: BodyLayer | None,
+    occludes: bool,
 ) -> None:
-    """The ring (or its reflection) into the light layer; ``leds`` from _led_pattern."""
+    """The ring (or its reflection) into the light layer, its funnel into ``body``; ``leds`` from _led_pattern."""
     distance = float(np.linalg.norm(center))
     if center[2] <= 0.05:
         return
@@ -216,12 +256,16 @@ def _draw_ring(
     # Thin strips are drawn as lines carrying the same light per unit length as the strip:
     # narrower than a pixel, they come out dimmer, not thinner.
     value = radiance * width_px / thickness
+    if body is not None and spec.funnel is not None:
+        transmission = gain * math.exp(-spec.attenuation_per_m * distance)
+        draw_funnel(camera, spec.funnel, body, center, normal, spec.marker_radius_m, transmission,
+                    0.6 + 0.03 * distance, occludes)
     if spec.funnel_glow > 0 and valid.all():
         _draw_funnel_glow(light, pix, radiance * spec.funnel_glow)
     if spec.led_count > 0:
         for (u, v), ok, factor in zip(pix, valid, leds, strict=True):
             if ok and factor > 0:
-                _draw_disc(light, u, v, max(0.7, width_px * 0.6), factor * radiance * min(1.0, width_px))
+                _draw_point(light, glare, u, v, max(0.7, width_px * 0.6), factor * radiance * min(1.0, width_px))
         return
     layer = np.zeros(light.shape, np.uint8)
     if valid.all() and width_px >= 3.0 and ripple == 0.0:
@@ -285,6 +329,16 @@ def _valid_runs(valid: np.ndarray) -> list[np.ndarray]:
         runs[0] = np.concatenate([runs[-1], runs[0]])
         runs = runs[:-1]
     return [r for r in runs if r.size > 1]
+
+
+def _draw_point(light: np.ndarray, glare: Glare | None, u: float, v: float, radius: float, value: float) -> None:
+    """An LED or a lamp: a disc of the given radiance and, with glare, the wide tail of its light."""
+    if glare is None:
+        _draw_disc(light, u, v, radius, value)
+        return
+    flux = value * math.pi * max(radius, 0.5) ** 2
+    _draw_disc(light, u, v, radius, value * (1.0 - glare.tail_share))
+    glare.add(light, u, v, flux)
 
 
 def _draw_disc(layer: np.ndarray, u: float, v: float, radius: float, value: float) -> None:
@@ -355,12 +409,14 @@ def _noise_field(height: int, width: int) -> np.ndarray:
     return field
 
 
-def _compose(camera: CameraModel, spec: SceneSpec, light: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """Water background + coloured light + shot and read noise, as 8-bit BGR.
+def _compose(camera: CameraModel, spec: SceneSpec, light: np.ndarray, body: BodyLayer | None,
+             rng: np.random.Generator) -> np.ndarray:
+    """Water background + the dock's body + coloured light + shot and read noise, as 8-bit BGR.
 
     A plain background is smooth per row, so its noise level is computed per row and,
-    where light was drawn, per pixel. Structure, caustics or vignetting make every pixel
-    different: then everything is computed per pixel.
+    where light or the dock was drawn, per pixel. Structure, caustics, walls or vignetting
+    make every pixel different: then everything is computed per pixel. The dock's body
+    hides the background; what is left in front of it is the veiling light.
     """
     h, w = camera.height, camera.width
     rows = np.linspace(spec.ambient_top, spec.ambient_bottom, h, dtype=np.float32) + np.float32(spec.backscatter)
@@ -368,9 +424,12 @@ def _compose(camera: CameraModel, spec: SceneSpec, light: np.ndarray, rng: np.ra
     led = np.array(spec.led_bgr, np.float32) * 255.0
     dy, dx = (int(v) for v in rng.integers(0, _NOISE_MARGIN, 2))
     noise = _noise_field(h, w)[dy : dy + h, dx : dx + w]
-    if spec.clutter or spec.caustics or spec.vignetting:
-        level = np.maximum(rows[:, None] + _background_structure(spec, h, w, rng), 0.0)  # no negative light
+    if spec.clutter or spec.caustics or spec.vignetting or spec.walls is not None:
+        structure = background_structure(h, w, spec.clutter, spec.caustics, spec.walls, rng)
+        level = np.maximum(rows[:, None] + structure, 0.0)  # no negative light
         clean = level[:, :, None] * water + light[:, :, None] * led
+        if body is not None:
+            _add_body(clean, body, np.s_[0:h, 0:w], np.float32(spec.backscatter) * water, level[:, :, None] * water)
         if spec.vignetting:
             clean *= _vignette(h, w, spec.vignetting)[:, :, None]
         image = clean + noise * np.sqrt(np.float32(spec.read_noise**2) + np.float32(spec.shot_noise**2) * clean)
@@ -380,46 +439,29 @@ def _compose(camera: CameraModel, spec: SceneSpec, light: np.ndarray, rng: np.ra
     row_sigma = np.sqrt(spec.read_noise**2 + spec.shot_noise**2 * background).astype(np.float32)
     image = noise * row_sigma[:, None, :]
     image += background[:, None, :]
-    ys, xs = np.nonzero(light[::4, ::4] > 1e-4)
+    drawn = light[::4, ::4] > 1e-4
+    if body is not None:
+        drawn |= body.coverage[::4, ::4] > 1e-4
+        drawn |= body.radiance[::4, ::4] > 1e-4
+    ys, xs = np.nonzero(drawn)
     if ys.size:  # add the light, and its shot noise, only where there is any
         y0, y1 = max(0, 4 * ys.min() - 4), min(h, 4 * ys.max() + 8)
         x0, x1 = max(0, 4 * xs.min() - 4), min(w, 4 * xs.max() + 8)
         clean = background[y0:y1, None, :] + light[y0:y1, x0:x1, None] * led
+        if body is not None:
+            _add_body(clean, body, np.s_[y0:y1, x0:x1], np.float32(spec.backscatter) * water,
+                      background[y0:y1, None, :])
         sigma = np.sqrt(np.float32(spec.read_noise**2) + np.float32(spec.shot_noise**2) * clean)
         image[y0:y1, x0:x1] = clean + noise[y0:y1, x0:x1] * sigma
     np.clip(image, 0, 255, out=image)
     return image.astype(np.uint8)
 
 
-def _smooth_field(h: int, w: int, cell_px: int, rng: np.random.Generator) -> np.ndarray:
-    """Zero-mean, unit-spread random relief with features about ``cell_px`` across."""
-    coarse = rng.normal(size=(h // cell_px + 3, w // cell_px + 3)).astype(np.float32)
-    return cv2.resize(coarse, (w + 2 * cell_px, h + 2 * cell_px), interpolation=cv2.INTER_CUBIC)[
-        cell_px : cell_px + h, cell_px : cell_px + w]
-
-
-def _background_structure(spec: SceneSpec, h: int, w: int, rng: np.random.Generator) -> np.ndarray:
-    """What lies behind the dock, in image units: out-of-focus relief and bars, and caustics.
-
-    Relief: the floor, walls and dock frame far out of focus. Bars: struts of the dock's
-    frame, brighter or darker than the water. Caustics: sunlight focused by the waves into
-    a moving web of thin bright lines on the floor and walls (the zero crossings of a
-    smooth random field), strongest low in the frame where the floor is.
-    """
-    out = np.zeros((h, w), np.float32)
-    scale = max(1, w // 480)  # features keep their share of the frame at any resolution
-    if spec.clutter:
-        out += 0.5 * spec.clutter * _smooth_field(h, w, 40 * scale, rng)
-        bars = np.zeros((h, w), np.float32)
-        for _ in range(int(rng.integers(0, 4))):
-            a, b = rng.uniform(0, 1, 2), rng.uniform(0, 1, 2)
-            cv2.line(bars, (int(a[0] * w), int(a[1] * h)), (int(b[0] * w), int(b[1] * h)),
-                     float(rng.choice([-1.0, 1.0]) * spec.clutter), int(rng.integers(2, 12)) * scale, cv2.LINE_AA)
-        out += cv2.GaussianBlur(bars, (0, 0), float(rng.uniform(1.0, 4.0)) * scale)
-    if spec.caustics:
-        web = np.exp(-((_smooth_field(h, w, 24 * scale, rng) / 0.15) ** 2))
-        out += spec.caustics * web * np.linspace(0.3, 1.0, h, dtype=np.float32)[:, None]
-    return out
+def _add_body(clean: np.ndarray, body: BodyLayer, roi: tuple[slice, slice], veil: np.ndarray,
+              background: np.ndarray) -> None:
+    """The dock's surfaces in place of the background they hide (in ``clean``, the ROI's pixels)."""
+    cover = body.coverage[roi][:, :, None]
+    clean += cover * (veil - background) + body.radiance[roi][:, :, None] * (np.array(body.bgr, np.float32) * 255.0)
 
 
 @lru_cache(maxsize=4)
