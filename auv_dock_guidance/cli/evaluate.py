@@ -8,6 +8,7 @@ from typing import Any
 
 from auv_dock_guidance.cli.common import (
     add_camera_argument,
+    fail,
     load_camera,
     positive_float,
     positive_int,
@@ -19,6 +20,8 @@ from auv_dock_guidance.cli.progress import Progress
 from auv_dock_guidance.sim.evaluate import (
     edge_comparison,
     population,
+    real_dock_population,
+    run_cases,
     run_frames,
     summarize,
     sweep_population,
@@ -32,15 +35,22 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "evaluate",
         help="detection rate and accuracy on rendered scenes with ground truth",
-        description="Render scenes (2-15 m; a third with surface reflections, some with lamps, "
-        "some empty; with what real docks and pools add: uneven and dead LEDs, funnel glow, "
-        "structure, caustics, particles, vignetting, JPEG), detect, and compare with the "
-        "ground truth. --range-sweep instead measures the detection rate per metre of range "
-        "from 2 to 30 m.",
+        description="Render scenes, detect, and compare with the ground truth. The default "
+        "population (the paper's 1080p camera): 2-15 m, the ring whole in view, a third with "
+        "surface reflections, some with lamps, some empty; with what real docks and pools add "
+        "(uneven and dead LEDs, funnel glow, structure, caustics, particles, vignetting, JPEG) "
+        "unless --plain. --population real-dock: what recorded footage of a dock shows (PAL "
+        "720x576 cameras and video, 6-12 blooming LEDs around a lit funnel or a strip, rings "
+        "cut by the frame and corners, green haze, tiled walls with ring-shaped fixtures, "
+        "reflections, blooming lamps, empty frames). --range-sweep instead measures the "
+        "detection rate per metre of range from 2 to 30 m.",
     )
     p.add_argument("--frames", type=positive_int, default=300, help="scenes to render (default %(default)s)")
     p.add_argument("--seed", type=seed, default=1, help="random seed of the scene population (default %(default)s)")
     p.add_argument("--range-sweep", action="store_true", help="detection rate per metre from 2 to 30 m")
+    p.add_argument("--population", choices=("paper", "real-dock"), default="paper",
+                   help="scenes to render: the paper's camera and marker (default), or real docks as "
+                   "recorded video shows them, each frame through its own PAL camera")
     p.add_argument("--plain", action="store_true",
                    help="without the real-world effects (the clean population the paper's figures compare with)")
     p.add_argument("--frames-per-range", type=positive_int, default=20,
@@ -69,8 +79,22 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_evaluate(args: argparse.Namespace) -> int:
-    camera = load_camera(args.camera_info)
     config = DetectorConfig()
+    if args.population == "real-dock":
+        for given, option in ((args.plain, "--plain"), (args.range_sweep, "--range-sweep"),
+                              (args.camera_info, "--camera-info")):
+            if given:
+                fail(f"{option} applies to the paper population only: --population real-dock draws its own "
+                     "PAL cameras and real-world look")
+        cases = real_dock_population(args.frames, args.seed)
+        report = summarize(run_cases(cases, config, args.workers, Progress("evaluate", len(cases))))
+        report["population"] = args.population
+        if args.json:
+            print_json(report)
+        else:
+            _print_summary(report)
+        return 0
+    camera = load_camera(args.camera_info)
     mix = ScenarioMix(real_world=not args.plain)
     if args.range_sweep:
         specs = sweep_population(camera, range(2, 31), args.frames_per_range, args.seed,
@@ -89,6 +113,7 @@ def run_evaluate(args: argparse.Namespace) -> int:
     specs = population(camera, args.frames, args.seed, mix)
     outcomes = run_frames(camera, config, specs, args.workers, Progress("evaluate", len(specs)))
     report = summarize(outcomes)
+    report["population"] = "paper-plain" if args.plain else "paper"
     if args.json:
         print_json(report)
     else:
@@ -105,8 +130,12 @@ def _num(value: float | None, unit: str, scale: float = 1.0, digits: int = 2) ->
 
 
 def _print_summary(r: dict[str, Any]) -> None:
-    print(f"frames                 {r['frames']} ({r['marker_frames']} with the marker, {r['empty_frames']} empty)")
-    print(f"detection rate         {_pct(r['detection_rate'])}")
+    print(f"frames                 {r['frames']} ({r['marker_frames']} with half of the ring or more in view, "
+          f"{r['corner_frames']} with a corner, {r['empty_frames']} empty)")
+    print(f"detection rate         {_pct(r['detection_rate'])} (whole ring {_pct(r['detection_rate_whole'])} "
+          f"of {r['whole_frames']}, cut by the frame {_pct(r['detection_rate_cut'])} of {r['cut_frames']})")
+    print(f"corners found          {_pct(r['detection_rate_corner'])} of {r['corner_frames']} "
+          f"(wrong object on {r['corner_wrong_object']})")
     print(f"false positives        {r['false_positives']} of {r['empty_frames']} empty frames")
     print(f"reflection chosen      {r['reflection_chosen']} of {r['reflection_frames']} frames with a reflection")
     print(f"wrong object chosen    {r['wrong_object']}")
@@ -114,6 +143,9 @@ def _print_summary(r: dict[str, Any]) -> None:
           f"p95 {_num(r['center_error_px_p95'], ' px')}")
     print(f"range error            p50 {_num(r['range_error_rel_p50'], ' %', 100)}, "
           f"p95 {_num(r['range_error_rel_p95'], ' %', 100)}")
+    for view, name in (("whole", "whole ring"), ("cut", "cut ring")):
+        print(f"  {name:<21}p50 {_num(r[f'range_error_rel_p50_{view}'], ' %', 100)}, "
+              f"p95 {_num(r[f'range_error_rel_p95_{view}'], ' %', 100)}")
     print(f"yaw error              p50 {_num(r['yaw_error_deg_p50'], ' deg', digits=3)}, "
           f"p95 {_num(r['yaw_error_deg_p95'], ' deg', digits=3)}")
     print(f"pitch error            p50 {_num(r['pitch_error_deg_p50'], ' deg', digits=3)}, "

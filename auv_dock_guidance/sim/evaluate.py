@@ -1,4 +1,10 @@
-"""Detector accuracy against rendered ground truth: the numbers behind `auv-dock evaluate`."""
+"""Detector accuracy against rendered ground truth: the numbers behind `auv-dock evaluate`.
+
+Frames are judged by what they show: the ring whole in view, cut by the frame edge with
+half of it or more in view, or only a corner in view (less than half). Detection rates
+and errors are reported for whole and cut rings together and apart; corners have their
+own rate, since a detection there is welcome but not required.
+"""
 
 from __future__ import annotations
 
@@ -11,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from auv_dock_guidance.geometry.camera import CameraModel
+from auv_dock_guidance.sim.real_dock import real_dock_scene
 from auv_dock_guidance.sim.scenarios import ScenarioMix, random_scene
 from auv_dock_guidance.sim.scene import GroundTruth, SceneSpec, render
 from auv_dock_guidance.vision.detector import Detection, Detector, DetectorConfig
@@ -29,25 +36,32 @@ class FrameOutcome:
     range_error_rel: float | None
     yaw_error_deg: float | None
     pitch_error_deg: float | None
+    view: str = "whole"  # GroundTruth.view: whole, cut, corner, or none (no marker in view)
 
 
 def judge(detection: Detection, truth: GroundTruth, kind: str) -> FrameOutcome:
-    """Compare one detection with the truth it was rendered from."""
+    """Compare one detection with the truth it was rendered from.
+
+    A detection is on the marker when its centre is within half the ring's radius of the
+    true centre (5 px at least); on a corner, within the ring (it points at the dock).
+    """
+    view = truth.view
     if not truth.marker_visible or truth.center_px is None or truth.position_m is None:
-        return FrameOutcome(kind, None, detection.found, False, False, None, None, None, None)
+        return FrameOutcome(kind, None, detection.found, False, False, None, None, None, None, view)
     x, y, z = truth.position_m
     if not detection.found:
-        return FrameOutcome(kind, z, False, False, False, None, None, None, None)
+        return FrameOutcome(kind, z, False, False, False, None, None, None, None, view)
     error = math.hypot(detection.u - truth.center_px[0], detection.v - truth.center_px[1])
     on_reflection = False
     if truth.reflection_center_px is not None:
         ru, rv = truth.reflection_center_px
         to_reflection = math.hypot(detection.u - ru, detection.v - rv)
         on_reflection = to_reflection < error
-    correct = not on_reflection and error < max(5.0, 0.5 * (truth.radius_px or 0.0))
+    tolerance = (1.0 if view == "corner" else 0.5) * (truth.radius_px or 0.0)
+    correct = not on_reflection and error < max(5.0, tolerance)
     pose = detection.pose
     if not correct or pose is None:
-        return FrameOutcome(kind, z, True, correct, on_reflection, error if correct else None, None, None, None)
+        return FrameOutcome(kind, z, True, correct, on_reflection, error if correct else None, None, None, None, view)
     return FrameOutcome(
         kind=kind,
         range_m=z,
@@ -58,7 +72,16 @@ def judge(detection: Detection, truth: GroundTruth, kind: str) -> FrameOutcome:
         range_error_rel=abs(pose.range_m - z) / z,
         yaw_error_deg=abs(pose.yaw_deg - math.degrees(math.atan2(x, z))),
         pitch_error_deg=abs(pose.pitch_deg - math.degrees(math.atan2(y, z))),
+        view=view,
     )
+
+
+@dataclass(frozen=True)
+class EvalCase:
+    """One frame to render and detect, and the camera it is seen through."""
+
+    camera: CameraModel
+    spec: SceneSpec
 
 
 def _scene_kind(spec: SceneSpec) -> str:
@@ -84,7 +107,21 @@ def run_frames(
     progress: Callable[[int, int], None] | None = None,
 ) -> list[FrameOutcome]:
     """Render and detect every scene (each frame independent), in parallel when workers > 1."""
-    jobs = [(camera, config, spec) for spec in specs]
+    return run_cases([EvalCase(camera, spec) for spec in specs], config, workers, progress)
+
+
+def run_cases(
+    cases: list[EvalCase],
+    config: DetectorConfig,
+    workers: int = 1,
+    progress: Callable[[int, int], None] | None = None,
+) -> list[FrameOutcome]:
+    """Render and detect each case through its own camera, in parallel when workers > 1.
+
+    The detector is told each scene's dock (its ring radius), as a user describes their
+    marker, also in frames where the dock is not in view.
+    """
+    jobs = [(case.camera, _marker_config(config, case.spec), case.spec) for case in cases]
     results: list[FrameOutcome] = []
     mapped: Iterable[FrameOutcome]
     if workers > 1:
@@ -104,9 +141,21 @@ def run_frames(
     return results
 
 
+def _marker_config(config: DetectorConfig, spec: SceneSpec) -> DetectorConfig:
+    if spec.marker_radius_m == config.marker_radius_m:
+        return config
+    return replace(config, marker_radius_m=spec.marker_radius_m)
+
+
 def population(camera: CameraModel, frames: int, seed: int, mix: ScenarioMix = ScenarioMix()) -> list[SceneSpec]:
     rng = np.random.default_rng(seed)
     return [random_scene(camera, rng, mix) for _ in range(frames)]
+
+
+def real_dock_population(frames: int, seed: int) -> list[EvalCase]:
+    """The real-dock population (sim/real_dock.py): each frame with its own PAL camera."""
+    rng = np.random.default_rng(seed)
+    return [EvalCase(*real_dock_scene(rng)) for _ in range(frames)]
 
 
 def sweep_population(
@@ -139,20 +188,41 @@ def _percentile(values: list[float], q: float) -> float | None:
     return float(np.percentile(values, q)) if values else None
 
 
+def _rate(outcomes: list[FrameOutcome]) -> float | None:
+    return sum(o.correct for o in outcomes) / len(outcomes) if outcomes else None
+
+
 def summarize(outcomes: list[FrameOutcome]) -> dict[str, Any]:
-    """The evaluate report: rates and error percentiles."""
-    marker = [o for o in outcomes if o.range_m is not None]
+    """The evaluate report: rates and error percentiles.
+
+    "marker" frames are those with half of the ring or more in view (whole or cut);
+    corners (less than half) are counted apart and enter no other figure.
+    """
+    marker = [o for o in outcomes if o.range_m is not None and o.view != "corner"]
+    whole = [o for o in marker if o.view == "whole"]
+    cut = [o for o in marker if o.view == "cut"]
+    corner = [o for o in outcomes if o.view == "corner"]
     empty = [o for o in outcomes if o.range_m is None]
     reflection = [o for o in marker if o.kind == "reflection"]
     good = [o for o in marker if o.correct and o.center_error_px is not None]
     centre = [o.center_error_px for o in good if o.center_error_px is not None]
-    rng_err = [o.range_error_rel for o in good if o.range_error_rel is not None]
     yaw = [o.yaw_error_deg for o in good if o.yaw_error_deg is not None]
     pitch = [o.pitch_error_deg for o in good if o.pitch_error_deg is not None]
+
+    def range_errors(view: str | None) -> list[float]:
+        return [o.range_error_rel for o in good if o.range_error_rel is not None and view in (None, o.view)]
+
     return {
         "frames": len(outcomes),
         "marker_frames": len(marker),
-        "detection_rate": sum(o.correct for o in marker) / len(marker) if marker else None,
+        "detection_rate": _rate(marker),
+        "whole_frames": len(whole),
+        "detection_rate_whole": _rate(whole),
+        "cut_frames": len(cut),
+        "detection_rate_cut": _rate(cut),
+        "corner_frames": len(corner),
+        "detection_rate_corner": _rate(corner),
+        "corner_wrong_object": sum(o.found and not o.correct for o in corner),
         "empty_frames": len(empty),
         "false_positives": sum(o.found for o in empty),
         "reflection_frames": len(reflection),
@@ -161,8 +231,12 @@ def summarize(outcomes: list[FrameOutcome]) -> dict[str, Any]:
         "wrong_object": sum(o.found and not o.correct for o in marker),
         "center_error_px_p50": _percentile(centre, 50),
         "center_error_px_p95": _percentile(centre, 95),
-        "range_error_rel_p50": _percentile(rng_err, 50),
-        "range_error_rel_p95": _percentile(rng_err, 95),
+        "range_error_rel_p50": _percentile(range_errors(None), 50),
+        "range_error_rel_p95": _percentile(range_errors(None), 95),
+        "range_error_rel_p50_whole": _percentile(range_errors("whole"), 50),
+        "range_error_rel_p95_whole": _percentile(range_errors("whole"), 95),
+        "range_error_rel_p50_cut": _percentile(range_errors("cut"), 50),
+        "range_error_rel_p95_cut": _percentile(range_errors("cut"), 95),
         "yaw_error_deg_p50": _percentile(yaw, 50),
         "yaw_error_deg_p95": _percentile(yaw, 95),
         "pitch_error_deg_p50": _percentile(pitch, 50),

@@ -93,12 +93,9 @@ def random_scene(camera: CameraModel, rng: np.random.Generator, mix: ScenarioMix
         return replace(spec, marker_center_m=None, lamps=lamps)
     z = range_m if range_m is not None else rng.uniform(mix.min_range_m, mix.max_range_m)
     center = _marker_position(camera, rng, z, mix.marker_radius_m)
-    tilt = rng.uniform(0, math.radians(25))
-    azimuth = rng.uniform(0, 2 * math.pi)
-    normal = (math.sin(tilt) * math.cos(azimuth), math.sin(tilt) * math.sin(azimuth), -math.cos(tilt))
-    spec = replace(spec, marker_center_m=tuple(center), marker_normal=normal)
+    spec = replace(spec, marker_center_m=tuple(center), marker_normal=tilted_normal(rng, math.radians(25)))
     if kind == "reflection":
-        spec = _with_reflection(camera, rng, spec)
+        spec = reflection_above(camera, rng, spec)
     elif kind == "distractors":
         lamps = _lamps(camera, rng, int(rng.integers(1, 4))) + _glints(camera, rng, int(rng.integers(0, 4)))
         spec = replace(spec, lamps=lamps)
@@ -137,7 +134,14 @@ def _marker_position(camera: CameraModel, rng: np.random.Generator, z: float, ra
     return np.array([x * z, y * z, z])
 
 
-def _with_reflection(camera: CameraModel, rng: np.random.Generator, spec: SceneSpec) -> SceneSpec:
+def tilted_normal(rng: np.random.Generator, max_tilt_rad: float) -> tuple[float, float, float]:
+    """The dock's axis towards the camera, tilted by up to ``max_tilt_rad`` in any direction."""
+    tilt = rng.uniform(0, max_tilt_rad)
+    azimuth = rng.uniform(0, 2 * math.pi)
+    return (math.sin(tilt) * math.cos(azimuth), math.sin(tilt) * math.sin(azimuth), -math.cos(tilt))
+
+
+def reflection_above(camera: CameraModel, rng: np.random.Generator, spec: SceneSpec) -> SceneSpec:
     """Put the surface where the ring's mirror image lands above it, sometimes cut by the top edge.
 
     With a level camera the surface is the plane y = -h and mirroring keeps z, so the
@@ -180,12 +184,12 @@ def _glints(camera: CameraModel, rng: np.random.Generator, count: int) -> tuple[
     )
 
 
-def dock_look(rng: np.random.Generator) -> SceneSpec:
+def dock_look(rng: np.random.Generator, discrete_share: float = 0.5) -> SceneSpec:
     """How one real-looking dock and its water look for a whole episode (geometry left to the caller).
 
-    Half of the docks carry 6-12 discrete LEDs that bloom (saturated white cores, halos
-    of the LED's colour several pixels wide) just outside a lit white funnel with dark
-    vanes and a hub; the others a continuous strip, around a funnel in half of them. The
+    ``discrete_share`` of the docks carry 6-12 discrete LEDs that bloom (saturated white
+    cores, halos of the LED's colour several pixels wide) just outside a lit white funnel
+    with dark vanes and a hub; the others a continuous strip, around a funnel in half of them. The
     water is drawn too: attenuation, haze, colour. The caller sets marker_center_m,
     marker_normal, marker_radius_m, the surface and the seed per frame (PoolWorld.scene_for
     does).
@@ -204,14 +208,14 @@ def dock_look(rng: np.random.Generator) -> SceneSpec:
         shot_noise=rng.uniform(0.3, 1.0),
         led_spread=float(rng.uniform(0.0, 0.3)),
     )
-    discrete = rng.uniform() < 0.5
+    discrete = rng.uniform() < discrete_share
     funnel = _funnel(rng) if discrete or rng.uniform() < 0.5 else None
     if discrete:
         return replace(
             spec,
             led_count=int(rng.integers(6, 13)),
             led_bgr=_BLOOMING_LED_COLOURS[rng.integers(len(_BLOOMING_LED_COLOURS))],
-            brightness=float(np.exp(rng.uniform(np.log(150.0), np.log(3000.0)))),
+            brightness=float(np.exp(rng.uniform(np.log(100.0), np.log(2000.0)))),
             led_psf_tail=rng.uniform(0.1, 0.4),
             led_psf_tail_rad=float(np.exp(rng.uniform(np.log(0.005), np.log(0.03)))),
             funnel=funnel,
