@@ -51,7 +51,7 @@ from auv_dock_guidance.nodes.conversions import (
 )
 from auv_dock_guidance.stamps import StampGate
 from auv_dock_guidance.vision.detector import Detection, Detector, DetectorConfig
-from auv_dock_guidance.vision.overlay import overlay_jpeg
+from auv_dock_guidance.vision.overlay import overlay_jpeg, overlay_text
 from auv_dock_guidance.vision.selection import SelectionConfig
 from auv_dock_guidance.vision.threshold import ThresholdConfig
 
@@ -214,12 +214,7 @@ class DetectorNode(Node):
         self._last_debug = now
         camera = self.detector.camera
         assert camera is not None  # frames are only processed with a camera model
-        share = self.detector.threshold.fraction
-        text = (f"{'FOUND' if detection.found else 'SEARCH'} thr {detection.threshold:.0f} "
-                f"share {share if share is not None else float('nan'):.2f}")
-        if detection.pose is not None:
-            pose = detection.pose
-            text += f" r {pose.range_m:.1f}m yaw {pose.yaw_deg:+.1f} pitch {pose.pitch_deg:+.1f}"
+        text = overlay_text(detection, self.detector.threshold.fraction)
         out = CompressedImage()
         out.header = msg.header
         out.format = "jpeg"

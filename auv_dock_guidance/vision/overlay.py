@@ -25,3 +25,14 @@ def overlay_jpeg(image: np.ndarray, detection: Detection, principal: tuple[float
     cv2.putText(small, text, (4, 14), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (255, 255, 255), 1, cv2.LINE_AA)
     ok, data = cv2.imencode(".jpg", small, [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
     return data.tobytes() if ok else b""
+
+
+def overlay_text(detection: Detection, share: float | None = None) -> str:
+    """The overlay's line: found or searching, the threshold (and its share), range and bearing."""
+    text = f"{'FOUND' if detection.found else 'SEARCH'} thr {detection.threshold:.0f}"
+    if share is not None:
+        text += f" share {share:.2f}"
+    if detection.pose is not None:
+        pose = detection.pose
+        text += f" r {pose.range_m:.1f}m yaw {pose.yaw_deg:+.1f} pitch {pose.pitch_deg:+.1f}"
+    return text
