@@ -57,6 +57,7 @@ class MeasurementNoise:
     # Range error the outline's scatter does not show (share of the range): the halo and the
     # threshold bias the radius by a little that changes with the view (0.05 % at 3 m on renders).
     range_share_floor: float = 0.0005
+    unknown_fit_px: float = 1.0  # centre error assumed when the fit reports none (px)
     approximate_focal_share: float = 0.05  # standard error of a guessed focal length (share)
     approximate_principal_share: float = 0.02  # standard error of a guessed principal point (share of width)
 
@@ -167,7 +168,9 @@ def _position_covariance(
     x_n, y_n = float(center[0]) / z, float(center[1]) / z
     samples = max(4.0, 2.0 * math.pi * radius_n * observation.focal_px / OUTLINE_PX_PER_SAMPLE)
     floor = noise.pixel_sigma_px / observation.focal_px * math.sqrt(2.0 / samples)
-    fit_sigma = observation.fit_sigma if math.isfinite(observation.fit_sigma) else 0.0
+    # A fit that could not tell its own error: assume the centre is known to a pixel, no better.
+    fit_sigma = observation.fit_sigma if math.isfinite(observation.fit_sigma) \
+        else noise.unknown_fit_px / observation.focal_px
     point_variance = 0.5 * (fit_sigma**2 + floor**2)  # one outline point's variance / samples
     center_factor, radius_factor = arc_factors(observation.visible_arc_deg)
     center_variance = point_variance * center_factor

@@ -81,6 +81,13 @@ def test_the_orientation_follows_the_dock_axis_and_its_roll_is_unknown():
     assert 0 < across @ rotation @ across < 0.01  # the tilt is known to a few degrees
 
 
+def test_a_fit_without_its_own_error_is_taken_as_a_pixel():
+    known = dock_pose(_observation(8.0, fit_sigma=1.0 / FOCAL_PX))
+    unknown = dock_pose(_observation(8.0, fit_sigma=math.nan))
+    assert unknown.range_sigma_m == pytest.approx(known.range_sigma_m)
+    assert not unknown.axis_observed
+
+
 def test_without_a_ring_fit_the_orientation_is_unknown():
     pose = dock_pose(_observation(5.0))  # no ellipse: a blob or a circle through an arc
     assert not pose.axis_observed
