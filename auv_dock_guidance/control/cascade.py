@@ -7,7 +7,9 @@ offset, limited to safe angles.
 
 Inner loop (at the control rate): the setpoints against the attitude measured by the
 main controller's navigation become yaw and pitch moments. Surge follows a speed
-schedule by range (the paper approached at 0.41 m/s), slowing for the terminal phase.
+schedule by range (the paper approached at 0.41 m/s), slowing for the terminal phase;
+a negative speed backs off in reverse. Beyond the paper, the approach path
+(``approach.py``) may set the heading goal instead of the bearing (``steer_yaw``).
 
 Conventions: attitude as the navigation reports it (aerospace: pitch positive nose up,
 yaw positive turning to starboard), radians. Camera bearings: yaw positive = dock to the
@@ -31,6 +33,7 @@ class Target:
     range_m: float
     offset_x_m: float  # right
     offset_y_m: float  # down
+    axis_optical: tuple[float, float, float] | None = None  # the dock's axis (ring normal, towards the camera)
 
     @property
     def bearing_yaw_rad(self) -> float:
@@ -41,7 +44,7 @@ class Target:
         return math.atan2(self.offset_y_m, self.range_m)
 
     def is_valid(self) -> bool:
-        values = (self.stamp_s, self.range_m, self.offset_x_m, self.offset_y_m)
+        values = (self.stamp_s, self.range_m, self.offset_x_m, self.offset_y_m, *(self.axis_optical or ()))
         return all(math.isfinite(v) for v in values) and self.range_m > 0
 
 
@@ -130,6 +133,11 @@ class CascadeController:
         pitch_goal = max(-c.max_pitch_setpoint_rad, min(c.max_pitch_setpoint_rad, attitude_at_frame.pitch_rad - dive))
         self._goal = (wrap_angle(attitude_at_frame.yaw_rad + yaw_turn), pitch_goal)
 
+    def steer_yaw(self, yaw_rad: float, level: bool = False) -> None:
+        """A heading goal from the approach path instead of the bearing; ``level`` also levels the pitch goal."""
+        pitch = 0.0 if level or self._goal is None else self._goal[1]
+        self._goal = (wrap_angle(yaw_rad), pitch)
+
     def hold(self, yaw_rad: float, pitch_rad: float) -> None:
         """Keep a fixed attitude goal (search: current heading, level)."""
         self._goal = (wrap_angle(yaw_rad), pitch_rad)
@@ -162,5 +170,5 @@ class CascadeController:
         yaw_error = wrap_angle(yaw_sp - attitude.yaw_rad)
         yaw_moment = self._inner_yaw.update(yaw_sp, attitude.yaw_rad, now_s, error=yaw_error)
         pitch_moment = self._inner_pitch.update(pitch_sp, attitude.pitch_rad, now_s)
-        surge = (max(0.0, speed_mps) / c.full_thrust_speed_mps) ** 2  # drag grows with speed squared
+        surge = math.copysign((speed_mps / c.full_thrust_speed_mps) ** 2, speed_mps)  # drag grows with speed squared
         return Demands(surge, yaw_moment, pitch_moment, yaw_sp, pitch_sp, speed_mps)

@@ -14,6 +14,10 @@ States:
   ``blind_range_m`` (where it should be in view) for ``terminal_lost_timeout_s``: ABORT.
   No detection at all for ``terminal_blind_timeout_s``: ABORT (the blind run should be
   over by then, whatever the speed).
+* RETRY: the approach path predicted that the entry would miss (too far off the centre
+  close in): instead of ramming, back off in reverse with the nose on the dock to a point
+  on the approach line further out, then TRACK again. Drives like TRACK (a fresh
+  detection within ``track_lost_timeout_s``); more than ``max_retries``: ABORT.
 * DOCKED: the main controller reports the latch, or in TERMINAL the dead-reckoned run
   since the last sighting covers the last range plus a margin.
 * ABORT: marker lost too long, search timed out, telemetry stale or no camera frame
@@ -21,7 +25,13 @@ States:
   lost telemetry or camera returns to SEARCH once both have been healthy for
   ``recovery_s``; the others wait for ``reset()`` (re-arm).
 
-Only TRACK and TERMINAL ever command thrust, and only with fresh telemetry and a live
+Steering: the paper's bearing homing (nose on the dock), or, with ``velocity_steering``
+and/or ``axis_alignment``, the approach path (``approach.py``): the dock tracked in the
+level frame with the current estimated from the drift (``tracker.py``), the dock's axis
+from the ring normals (``axis.py``), the velocity steered onto the axis and crabbed into
+the current.
+
+Only TRACK, TERMINAL and RETRY ever command thrust, and only with fresh telemetry and a live
 camera (when the caller reports frames with ``frame_processed``). Fresh means neither
 older nor newer than the limit: after the clock steps back, every earlier stamp lies in
 the future and is not fresh. Detections must move forward in time: a repeated or
@@ -39,11 +49,14 @@ its reason, for the caller to log.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import StrEnum
 
+from auv_dock_guidance.control.approach import ApproachConfig, ApproachPlanner, Plan, Situation, Verdict
+from auv_dock_guidance.control.axis import AxisConfig, AxisEstimator
 from auv_dock_guidance.control.cascade import Attitude, CascadeConfig, CascadeController, Demands, Target
 from auv_dock_guidance.control.mixer import Mixer, MixerConfig, ThrusterCommand
+from auv_dock_guidance.control.tracker import DockTracker, TrackerConfig
 from auv_dock_guidance.errors import ConfigError
 from auv_dock_guidance.stamps import StampGate
 
@@ -52,6 +65,7 @@ class State(StrEnum):
     SEARCH = "SEARCH"
     TRACK = "TRACK"
     TERMINAL = "TERMINAL"
+    RETRY = "RETRY"
     DOCKED = "DOCKED"
     ABORT = "ABORT"
 
@@ -73,18 +87,32 @@ class GuidanceConfig:
     detection_max_age_s: float = 0.5  # an older detection is not acted on
     max_roll_rad: float = math.radians(20)
     max_pitch_rad: float = math.radians(40)
+    velocity_steering: bool = True  # track the dock in the level frame, estimate the current, crab into it
+    axis_alignment: bool = True  # line up with the dock's axis (from the ring normals) before the entry
+    max_retries: int = 3  # backing off this many times and still missing: ABORT
+    speed_time_constant_s: float = 1.0  # how fast the vehicle's speed through the water follows its thrust
     cascade: CascadeConfig = field(default_factory=CascadeConfig)
     mixer: MixerConfig = field(default_factory=MixerConfig)
+    approach: ApproachConfig = field(default_factory=ApproachConfig)
+    tracker: TrackerConfig = field(default_factory=TrackerConfig)
+    axis: AxisConfig = field(default_factory=AxisConfig)
 
     def __post_init__(self) -> None:
         positive = (
             self.terminal_range_m, self.track_lost_timeout_s, self.terminal_lost_timeout_s, self.search_timeout_s,
             self.terminal_blind_timeout_s,
             self.telemetry_timeout_s, self.detection_max_age_s, self.max_roll_rad, self.max_pitch_rad,
-            self.blind_range_m, self.camera_timeout_s, self.recovery_s,
+            self.blind_range_m, self.camera_timeout_s, self.recovery_s, self.speed_time_constant_s,
         )
         if not all(math.isfinite(v) and v > 0 for v in positive) or self.confirm_frames < 1 or self.dock_margin_m < 0:
             raise ConfigError("guidance timeouts, ranges and limits must be positive numbers, confirm_frames >= 1")
+        if self.max_retries < 0:
+            raise ConfigError(f"max_retries {self.max_retries} must be 0 or more")
+
+    @property
+    def follows_path(self) -> bool:
+        """Steering by the approach path rather than by the bearing alone."""
+        return self.velocity_steering or self.axis_alignment
 
 
 @dataclass(frozen=True)
@@ -102,6 +130,7 @@ class GuidanceOutput:
     demands: Demands | None
     transition: Transition | None
     rejected: str | None = None  # why the new detection was refused (bad input), if it was
+    plan: Plan | None = None  # the approach path's heading and speed, when steering by it
 
 
 class Guidance:
@@ -115,7 +144,11 @@ class Guidance:
         self.config = config
         self.cascade = CascadeController(config.cascade)
         self.mixer = Mixer(config.mixer)
+        self.planner = ApproachPlanner(config.approach)
+        self.tracker = DockTracker(_tracker_config(config))
+        self.axis = AxisEstimator(config.axis)
         self.clock_steps_back = 0
+        self.retries = 0
         self._clock_s: float | None = None  # the newest clock reading seen
         self.reset()
 
@@ -124,11 +157,19 @@ class Guidance:
         self.config = config
         self.cascade = CascadeController(config.cascade)
         self.mixer = Mixer(config.mixer)
+        self.planner = ApproachPlanner(config.approach)
+        self.tracker = DockTracker(_tracker_config(config))
+        self.axis = AxisEstimator(config.axis)
 
     def reset(self) -> None:
         """Back to SEARCH (re-arm after ABORT or DOCKED)."""
         self.state = State.SEARCH
         self.cascade.reset()
+        self.tracker = DockTracker(_tracker_config(self.config))
+        self.axis = AxisEstimator(self.config.axis)
+        self.retries = 0
+        self._water_speed = 0.0  # the vehicle's own speed through the water, from its thrust
+        self._surge = 0.0  # the surge share of the last command
         self._since: float | None = None  # time the current state began
         self._streak = 0
         self._last_target: Target | None = None  # the last detection steered by
@@ -153,6 +194,7 @@ class Guidance:
                 setattr(self, name, value + step)
         self._target_gate.reset()
         self.cascade.reset()  # its PIDs would hold their output until the clock caught up
+        self.tracker.reset()
 
     def _maybe_recover(self, now_s: float, attitude: Attitude | None) -> Transition | None:
         """Leave an ABORT caused by lost telemetry or camera once both have been healthy a while."""
@@ -222,8 +264,16 @@ class Guidance:
         if attitude is not None and (
                 not attitude.is_valid() or not _fresh(now_s, attitude.stamp_s, c.telemetry_timeout_s)):
             attitude = None
-        transition = self._next_state(now_s, target, attitude, docked_signal)
+        plan = None
+        if c.follows_path and attitude is not None:
+            self._own_motion(dt, attitude)
+            if target is not None:
+                self._observe(target, attitude)
+            plan = self._plan(attitude)
+        before = self.state
+        transition = self._next_state(now_s, target, attitude, docked_signal, plan)
         if self.state in (State.ABORT, State.DOCKED) or attitude is None or self._camera_silent(now_s):
+            self._surge = 0.0
             return GuidanceOutput(self.state, self.mixer.neutral(), None, transition, rejected)
         if target is not None:
             self._last_target = target
@@ -232,13 +282,52 @@ class Guidance:
         if self.state is State.SEARCH:
             # No thrust without a confirmed marker: the main controller keeps the vehicle level.
             self.cascade.reset()
+            self._surge = 0.0
             return GuidanceOutput(self.state, self.mixer.neutral(), None, transition, rejected)
         seen = self._last_target.range_m - self._run_since_sighting if self._last_target else None
-        speed = self.cascade.speed_for_range(seen)
+        if plan is not None:
+            if (self.state is State.RETRY) != (before is State.RETRY):
+                plan = self._plan(attitude)
+            assert plan is not None  # the tracker has a fix once anything was seen
+            self.cascade.steer_yaw(plan.yaw_rad, level=self.state is State.RETRY)
+            speed = plan.speed_mps
+        else:
+            speed = self.cascade.speed_for_range(seen)
         demands = self.cascade.update(attitude, now_s, speed)
-        self._run_since_sighting += speed * dt
+        self._run_since_sighting += max(0.0, speed) * dt
         command = self.mixer.mix(demands.surge, demands.yaw, demands.pitch)
-        return GuidanceOutput(self.state, command, demands, transition, rejected)
+        surge_column = self.mixer.config.allocation
+        column = [row[0] for row in surge_column]
+        self._surge = sum(t * a for t, a in zip(command.thrust, column, strict=True)) / max(
+            sum(a * a for a in column), 1e-9)
+        return GuidanceOutput(self.state, command, demands, transition, rejected, plan)
+
+    def _own_motion(self, dt: float, attitude: Attitude) -> None:
+        """The vehicle's motion through the water since the last tick (its thrust and heading) moves the track on."""
+        full = self.config.cascade.full_thrust_speed_mps
+        steady = math.copysign(full * math.sqrt(abs(self._surge)), self._surge)
+        self._water_speed += (steady - self._water_speed) * min(1.0, dt / self.config.speed_time_constant_s)
+        run = self._water_speed * dt * math.cos(attitude.pitch_rad)
+        self.tracker.predict(dt, (run * math.cos(attitude.yaw_rad), run * math.sin(attitude.yaw_rad)))
+
+    def _observe(self, target: Target, attitude: Attitude) -> None:
+        self.tracker.update(target, attitude)
+        if self.config.axis_alignment and target.axis_optical is not None:
+            self.axis.observe(target, target.axis_optical, attitude)
+
+    def _plan(self, attitude: Attitude) -> Plan | None:
+        fix = self.tracker.fix()
+        if fix is None:
+            return None
+        axis = self.axis.estimate() if self.config.axis_alignment else None
+        range_m = math.hypot(*fix.position_m)
+        situation = Situation(
+            position_m=fix.position_m, current_mps=fix.current_mps, heading_rad=attitude.yaw_rad,
+            water_speed_mps=self._water_speed, axis_yaw_rad=axis.yaw_rad if axis is not None and axis.known else None,
+            camera_ahead_m=self.config.tracker.camera_ahead_m,
+            nominal_speed_mps=self.cascade.speed_for_range(range_m - self.config.tracker.camera_ahead_m),
+        )
+        return self.planner.plan(situation, backing_off=self.state is State.RETRY)
 
     def _refusal(self, now_s: float, target: Target) -> str | None:
         """Why a new detection must not be acted on, or None."""
@@ -252,7 +341,8 @@ class Guidance:
         return self._target_gate.admit(target.stamp_s)
 
     def _next_state(
-        self, now_s: float, target: Target | None, attitude: Attitude | None, docked_signal: bool
+        self, now_s: float, target: Target | None, attitude: Attitude | None, docked_signal: bool,
+        plan: Plan | None = None,
     ) -> Transition | None:
         c = self.config
         previous = self.state
@@ -269,13 +359,15 @@ class Guidance:
             return None
         if previous is State.ABORT:
             return self._maybe_recover(now_s, attitude)
+        driving = (State.TRACK, State.TERMINAL, State.RETRY)
+        would_miss = plan is not None and plan.verdict is Verdict.WOULD_MISS and lost_for <= c.track_lost_timeout_s
         if attitude is None:
-            if previous in (State.TRACK, State.TERMINAL):
+            if previous in driving:
                 new_state, reason = State.ABORT, "telemetry from the main controller is stale or invalid"
                 self._abort_kind = "telemetry"
             else:
                 self._streak = 0  # no tracking without navigation
-        elif self._camera_silent(now_s) and previous in (State.TRACK, State.TERMINAL):
+        elif self._camera_silent(now_s) and previous in driving:
             new_state = State.ABORT
             reason = f"no camera frame for {now_s - (self._last_frame_s or now_s):.1f} s"
             self._abort_kind = "camera"
@@ -283,13 +375,27 @@ class Guidance:
             new_state = State.ABORT
             reason = f"attitude out of limits (roll {math.degrees(attitude.roll_rad):.0f} deg, " \
                      f"pitch {math.degrees(attitude.pitch_rad):.0f} deg)"
-        elif docked_signal and previous in (State.TRACK, State.TERMINAL):
+        elif docked_signal and previous in driving:
             new_state, reason = State.DOCKED, "main controller reports the dock latch closed"
         elif previous is State.SEARCH:
             if self._streak >= c.confirm_frames:
                 new_state, reason = State.TRACK, f"marker confirmed in {self._streak} frames"
             elif now_s - (self._since or now_s) > c.search_timeout_s:
                 new_state, reason = State.ABORT, f"no marker for {c.search_timeout_s:.0f} s"
+        elif would_miss and previous in (State.TRACK, State.TERMINAL):
+            assert plan is not None  # would_miss needs one
+            miss = "not closing" if plan.predicted_miss_m is None else f"{plan.predicted_miss_m:+.2f} m off the centre"
+            if self.retries >= c.max_retries:
+                new_state, reason = State.ABORT, f"entry would miss ({miss}) after {self.retries} retries"
+            else:
+                self.retries += 1
+                new_state = State.RETRY
+                reason = f"entry would miss ({miss}) {plan.along_m:.1f} m out: back off, retry {self.retries}"
+        elif previous is State.RETRY:
+            if lost_for > c.track_lost_timeout_s:
+                new_state, reason = State.SEARCH, f"marker lost for {lost_for:.1f} s"
+            elif plan is not None and plan.verdict is Verdict.BACKED_OFF:
+                new_state, reason = State.TRACK, f"backed off to {plan.along_m:.1f} m: approach again"
         elif previous is State.TRACK:
             if target is not None and target.range_m < c.terminal_range_m:
                 new_state, reason = State.TERMINAL, f"range {target.range_m:.2f} m below {c.terminal_range_m} m"
@@ -314,6 +420,13 @@ class Guidance:
         if new_state is State.SEARCH:
             self._streak = 0
         return Transition(now_s, previous, new_state, reason)
+
+
+def _tracker_config(config: GuidanceConfig) -> TrackerConfig:
+    """Without velocity steering the track follows each detection and estimates no drift."""
+    if config.velocity_steering:
+        return config.tracker
+    return replace(config.tracker, estimate_current=False)
 
 
 def _fresh(now_s: float, stamp_s: float, limit_s: float) -> bool:

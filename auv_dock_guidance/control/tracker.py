@@ -1,9 +1,15 @@
-"""A constant-velocity Kalman filter on the dock's position in the camera frame.
+"""Where the vehicle is relative to the dock, and which way the water carries it.
 
-Beyond the paper: it smooths detection noise, rejects outliers (a detection that jumps
-further than the innovation gate allows, such as one frame on a lamp), and predicts
-through short dropouts (``max_coast_s``) so guidance is not starved by a missed frame.
-State: position (x right, y down, z forward, metres) and its rate of change.
+A Kalman filter in the level navigation frame (x along yaw 0, y to starboard; the
+navigation's heading is the only absolute reference it needs). State: the vehicle's
+reference point relative to the dock's entrance centre (m) and the water current (m/s).
+Between detections the vehicle's own motion through the water (its heading from the
+navigation and its speed from its own thrust) plus the current moves the position; each
+detection, turned into the level frame with the attitude at the frame, corrects it. The
+difference between where the vehicle went and where its own motion took it is the drift:
+the current estimate that lets guidance crab into it. Beyond the paper: it also smooths
+detection noise, rejects outliers (a gate on the innovation) and predicts through
+dropouts and the blind last metre.
 """
 
 from __future__ import annotations
@@ -13,92 +19,132 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from auv_dock_guidance.control.cascade import Target
+from auv_dock_guidance.control.cascade import Attitude, Target
+
+# Body (forward, starboard, down) from the camera optical frame (right, down, forward).
+_BODY_FROM_OPTICAL = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+
+
+def level_from_body(attitude: Attitude) -> np.ndarray:
+    """Rotation of body axes (forward, starboard, down) into the level navigation frame (x, y, down)."""
+    cr, sr = math.cos(attitude.roll_rad), math.sin(attitude.roll_rad)
+    cp, sp = math.cos(attitude.pitch_rad), math.sin(attitude.pitch_rad)
+    cy, sy = math.cos(attitude.yaw_rad), math.sin(attitude.yaw_rad)
+    rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
+    ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
+    rx = np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
+    return rz @ ry @ rx
+
+
+def optical_to_level(vector_optical: tuple[float, float, float] | np.ndarray, attitude: Attitude) -> np.ndarray:
+    """A direction or offset seen by the camera, in the level navigation frame."""
+    return level_from_body(attitude) @ (_BODY_FROM_OPTICAL @ np.asarray(vector_optical, dtype=float))
+
+
+def dock_from_camera(target: Target, attitude: Attitude) -> np.ndarray:
+    """The dock's entrance centre relative to the camera, level navigation frame (x, y, down)."""
+    return optical_to_level((target.offset_x_m, target.offset_y_m, target.range_m), attitude)
 
 
 @dataclass(frozen=True)
 class TrackerConfig:
-    accel_noise: float = 0.3  # m/s^2, how fast the relative position may change course
-    lateral_noise_per_m: float = 0.004  # measurement noise across the line of sight, per metre of range
+    camera_ahead_m: float = 0.9  # camera ahead of the vehicle's reference point (the point the filter tracks)
+    motion_noise_mps: float = 0.08  # error of the vehicle's own motion model (speed, sideslip), white
+    current_noise_mps2: float = 0.01  # how fast the current may change (random walk)
+    initial_current_sigma_mps: float = 0.3
+    lateral_noise_per_m: float = 0.009  # measurement noise across the line of sight (detector + attitude), per m
     range_noise_rel: float = 0.02  # measurement noise along it, relative to range
-    gate_chi2: float = 16.0  # innovation gate (3 dof): larger jumps are rejected
-    max_coast_s: float = 1.0  # predict through dropouts up to this long
-    max_rejections: int = 3  # this many rejections in a row restart the track on the new detection
+    gate_chi2: float = 13.8  # innovation gate (2 dof, 99.9 %): larger jumps are rejected
+    max_rejections: int = 3  # this many rejections in a row restart the position on the new detection
+    estimate_current: bool = True  # False: the position follows each detection, no drift estimate
 
 
-class TargetTracker:
+@dataclass(frozen=True)
+class DockFix:
+    """The tracked geometry, level navigation frame."""
+
+    position_m: tuple[float, float]  # vehicle reference point relative to the dock's entrance centre
+    current_mps: tuple[float, float]
+    position_sigma_m: float
+    current_sigma_mps: float
+
+
+class DockTracker:
     def __init__(self, config: TrackerConfig = TrackerConfig()) -> None:
         self.config = config
         self.reset()
 
     def reset(self) -> None:
-        self._x: np.ndarray | None = None
-        self._p = np.eye(6)
-        self._time: float | None = None
-        self._last_update: float | None = None
+        self._x: np.ndarray | None = None  # rx, ry, cx, cy
+        self._p = np.eye(4)
         self._rejections = 0
         self.rejected = 0
 
-    def update(self, time_s: float, measurement: Target | None) -> Target | None:
-        """The filtered target for this frame, a prediction through a dropout, or None."""
-        if self._x is None or self._time is None:
-            if measurement is not None:
-                self._start(measurement)
-                return measurement
-            return None
-        self._predict(time_s - self._time)
-        self._time = time_s
-        if measurement is not None:
-            z = np.array([measurement.offset_x_m, measurement.offset_y_m, measurement.range_m])
-            if self._correct(z, measurement.range_m):
-                self._last_update = time_s
-                self._rejections = 0
-            else:
-                self.rejected += 1
-                self._rejections += 1
-                if self._rejections >= self.config.max_rejections:
-                    self._start(measurement)
-                    return measurement
-        if self._last_update is None or time_s - self._last_update > self.config.max_coast_s:
-            return None
-        x = self._x
-        return Target(time_s, float(x[2]), float(x[0]), float(x[1])) if x[2] > 0.05 else None
+    @property
+    def started(self) -> bool:
+        return self._x is not None
 
-    def _start(self, m: Target) -> None:
-        self._x = np.array([m.offset_x_m, m.offset_y_m, m.range_m, 0.0, 0.0, 0.0])
-        r = self._measurement_noise(m.range_m)
-        self._p = np.diag([r[0, 0], r[1, 1], r[2, 2], 1.0, 1.0, 1.0])
-        self._time = self._last_update = m.stamp_s
-        self._rejections = 0
+    def fix(self) -> DockFix | None:
+        if self._x is None:
+            return None
+        x, p = self._x, self._p
+        return DockFix((float(x[0]), float(x[1])), (float(x[2]), float(x[3])),
+                       math.sqrt(max(p[0, 0], p[1, 1])), math.sqrt(max(p[2, 2], p[3, 3])))
 
-    def _predict(self, dt: float) -> None:
-        assert self._x is not None  # called only once a track has started
-        if dt <= 0:
+    def predict(self, dt: float, own_displacement_m: tuple[float, float]) -> None:
+        """Move on by ``dt`` seconds in which the vehicle's own motion through the water covered this."""
+        if self._x is None or dt <= 0:
             return
-        f = np.eye(6)
-        f[0:3, 3:6] = dt * np.eye(3)
-        q = self.config.accel_noise**2
-        g = np.vstack([0.5 * dt * dt * np.eye(3), dt * np.eye(3)])
-        self._x = f @ self._x
-        self._p = f @ self._p @ f.T + q * (g @ g.T)
+        c = self.config
+        f = np.eye(4)
+        if c.estimate_current:
+            f[0, 2] = f[1, 3] = dt
+        self._x = f @ self._x + np.array([own_displacement_m[0], own_displacement_m[1], 0.0, 0.0])
+        q = np.diag([c.motion_noise_mps**2 * dt] * 2 + [c.current_noise_mps2**2 * dt] * 2)
+        self._p = f @ self._p @ f.T + q
 
-    def _correct(self, z: np.ndarray, range_m: float) -> bool:
-        assert self._x is not None  # called only once a track has started
-        h = np.hstack([np.eye(3), np.zeros((3, 3))])
-        s = h @ self._p @ h.T + self._measurement_noise(range_m)
+    def update(self, target: Target, attitude: Attitude) -> bool:
+        """Correct with a detection; False if it was rejected as an outlier."""
+        c = self.config
+        dock = dock_from_camera(target, attitude)
+        lever = level_from_body(attitude) @ np.array([c.camera_ahead_m, 0.0, 0.0])
+        z = -(dock[:2] + lever[:2])  # reference point relative to the dock
+        r = self._measurement_noise(dock)
+        if self._x is None or not c.estimate_current:
+            self._start(z, r)
+            return True
+        h = np.hstack([np.eye(2), np.zeros((2, 2))])
+        s = h @ self._p @ h.T + r
         innovation = z - h @ self._x
         distance = float(innovation @ np.linalg.solve(s, innovation))
-        if not math.isfinite(distance) or distance > self.config.gate_chi2:
+        if not math.isfinite(distance) or distance > c.gate_chi2:
+            self.rejected += 1
+            self._rejections += 1
+            if self._rejections >= c.max_rejections:
+                self._start(z, r)
             return False
         k = self._p @ h.T @ np.linalg.inv(s)
         self._x = self._x + k @ innovation
-        self._p = (np.eye(6) - k @ h) @ self._p
+        self._p = (np.eye(4) - k @ h) @ self._p
+        self._rejections = 0
         return True
 
-    def _measurement_noise(self, range_m: float) -> np.ndarray:
+    def _start(self, z: np.ndarray, r: np.ndarray) -> None:
+        """Position from this detection; the current estimate is kept if there is one."""
+        current = self._x[2:] if self._x is not None else np.zeros(2)
+        current_p = self._p[2:, 2:] if self._x is not None else np.eye(2) * self.config.initial_current_sigma_mps**2
+        if not self.config.estimate_current:
+            current, current_p = np.zeros(2), np.zeros((2, 2))
+        self._x = np.concatenate([z, current])
+        self._p = np.zeros((4, 4))
+        self._p[:2, :2] = r
+        self._p[2:, 2:] = current_p
+        self._rejections = 0
+
+    def _measurement_noise(self, dock_level: np.ndarray) -> np.ndarray:
         c = self.config
-        lateral = (c.lateral_noise_per_m * max(range_m, 0.5)) ** 2
-        return np.diag([lateral, lateral, (c.range_noise_rel * max(range_m, 0.5)) ** 2])
-
-
-
+        distance = max(float(np.linalg.norm(dock_level)), 0.5)
+        along = dock_level[:2] / max(float(np.linalg.norm(dock_level[:2])), 1e-6)
+        across = np.array([-along[1], along[0]])
+        return ((c.range_noise_rel * distance) ** 2 * np.outer(along, along)
+                + (c.lateral_noise_per_m * distance) ** 2 * np.outer(across, across) + 1e-6 * np.eye(2))

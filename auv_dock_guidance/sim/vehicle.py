@@ -3,7 +3,8 @@
 Five degrees of freedom (surge, sway, heave, pitch, yaw; roll held near zero as in the
 paper), with added mass, linear and quadratic damping, a pitch restoring moment from the
 centre of buoyancy above the centre of gravity, first-order thruster lag, an optional
-water current, and a navigation system that reports attitude and depth with noise.
+water current (steady, plus slow gusts: sinusoids of periods 40-120 s in each horizontal
+direction), and a navigation system that reports attitude and depth with noise.
 
 Body axes follow the navigation convention: u forward, v to starboard, w down; q pitch
 rate (nose up +), r yaw rate (to starboard +). The pose is a ``VehiclePose`` in the pool
@@ -58,7 +59,8 @@ class AuvDynamics:
     pose: VehiclePose
     params: VehicleParams = field(default_factory=VehicleParams)
     pwm: PwmConfig = field(default_factory=PwmConfig)
-    current_mps: tuple[float, float, float] = (0.0, 0.0, 0.0)  # water velocity in the pool frame
+    current_mps: tuple[float, float, float] = (0.0, 0.0, 0.0)  # steady water velocity in the pool frame
+    gust_mps: float = 0.0  # amplitude of the slow gusts on top of it (each horizontal direction)
     noise: NavigationNoise = field(default_factory=NavigationNoise)
     seed: int = 0
     docked: bool = False
@@ -70,6 +72,14 @@ class AuvDynamics:
         self.thrust = np.zeros(4)
         self._rng = np.random.default_rng(self.seed)
         self._allocation = np.asarray(DEFAULT_ALLOCATION)
+        gusts = np.random.default_rng([self.seed, 1])
+        self._gust_periods_s = gusts.uniform(40.0, 120.0, 2)
+        self._gust_phases = gusts.uniform(0.0, 2 * math.pi, 2)
+
+    def current_at(self, time_s: float) -> np.ndarray:
+        """Water velocity (pool frame) at this time: the steady current plus the gusts."""
+        swing = self.gust_mps * np.sin(2 * math.pi * time_s / self._gust_periods_s + self._gust_phases)
+        return np.asarray(self.current_mps, dtype=float) + np.array([swing[0], swing[1], 0.0])
 
     @property
     def speed_mps(self) -> float:
@@ -122,7 +132,7 @@ class AuvDynamics:
         roll = p.roll_amplitude_rad * math.sin(0.7 * self.time_s)
         # Body velocity (nav: forward, starboard, down) as FLU, into the pool frame, plus the current.
         flu = np.array([self.velocity[0], -self.velocity[1], -self.velocity[2]])
-        world = pose.body_to_world() @ flu + np.asarray(self.current_mps)
+        world = pose.body_to_world() @ flu + self.current_at(self.time_s)
         self.pose = VehiclePose(pose.x + h * world[0], pose.y + h * world[1], min(0.0, pose.z + h * world[2]),
                                 roll, pitch, yaw)
 

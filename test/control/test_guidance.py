@@ -81,8 +81,8 @@ def test_terminal_holds_course_through_dropouts_then_docks_by_dead_reckoning():
 
 
 def test_yaw_converges_on_the_bearing_in_closed_loop():
-    vehicle = SimpleVehicle()
-    g = Guidance()
+    vehicle = SimpleVehicle()  # turns but does not travel: the paper's bearing homing, not the approach path
+    g = Guidance(GuidanceConfig(velocity_steering=False, axis_alignment=False))
     dock_bearing = math.radians(10)
     t, dt = 0.0, 0.02
     for _ in range(int(20 / dt)):

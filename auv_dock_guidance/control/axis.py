@@ -1,0 +1,114 @@
+"""The dock's axis in the level navigation frame, from the ring normals the detector reports.
+
+The tilt-aware fit gives the ring's axis in the camera frame, but a circle's image fits
+two circles whose axes are mirror images about the line of sight, and far out the
+detector can only guess which (``Detection.ring_normal`` is then its guess). The dock
+does not move, so its true axis is the same direction from every viewpoint while the
+mirror image swings with the line of sight. Each observation therefore contributes both
+candidates; the estimate is the direction that explains most observations (each by the
+nearer of its two candidates), and it counts as known only once the mirror about the
+present line of sight explains them clearly worse (the vehicle has seen the dock from
+more than one direction), or when the two coincide (the vehicle is on the axis).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from auv_dock_guidance.control.cascade import Attitude, Target
+from auv_dock_guidance.control.pid import wrap_angle
+from auv_dock_guidance.control.tracker import dock_from_camera, optical_to_level
+
+
+@dataclass(frozen=True)
+class AxisConfig:
+    noise_deg_at_zero: float = 0.5  # angle noise of one observation close in...
+    noise_deg_per_m2: float = 0.01  # ...growing with the square of the range (the ring shrinks, its tilt blurs)
+    outlier_sigmas: float = 3.0  # an observation further than this from both candidates counts as an outlier
+    min_observations: int = 5
+    min_margin: float = 8.0  # cost (squared sigmas) by which the mirror must explain the observations worse
+    coincide_deg: float = 3.0  # candidates closer than this to the line of sight: no mirror ambiguity
+    memory: int = 300  # observations kept
+    candidates: int = 60  # the most recent observations' directions are tried as the estimate
+    max_tilt_deg: float = 75.0  # a normal further than this from the line of sight is not a ring's
+
+
+@dataclass(frozen=True)
+class AxisEstimate:
+    yaw_rad: float  # direction of travel into the dock (level frame, yaw convention of the navigation)
+    sigma_rad: float
+    known: bool  # told apart from its mirror image (or on the axis, where there is none)
+
+
+class AxisEstimator:
+    def __init__(self, config: AxisConfig = AxisConfig()) -> None:
+        self.config = config
+        self.reset()
+
+    def reset(self) -> None:
+        self._observations: deque[tuple[float, float, float]] = deque(maxlen=self.config.memory)  # a, b, sigma
+        self._line_of_sight_rad: float | None = None  # direction from the vehicle to the dock
+
+    def observe(self, target: Target, ring_normal_optical: tuple[float, float, float], attitude: Attitude) -> None:
+        c = self.config
+        dock = dock_from_camera(target, attitude)
+        distance = float(np.linalg.norm(dock))
+        if distance <= 0 or not all(math.isfinite(v) for v in ring_normal_optical):
+            return
+        normal = optical_to_level(ring_normal_optical, attitude)  # points out of the dock, towards the camera
+        normal = normal / max(float(np.linalg.norm(normal)), 1e-12)
+        sight = -dock / distance  # from the dock towards the camera
+        if float(normal @ sight) < math.cos(math.radians(c.max_tilt_deg)):
+            return
+        mirror = 2.0 * float(normal @ sight) * sight - normal
+        self._line_of_sight_rad = math.atan2(dock[1], dock[0])
+        sigma = math.radians(c.noise_deg_at_zero + c.noise_deg_per_m2 * distance**2)
+        self._observations.append((math.atan2(-normal[1], -normal[0]), math.atan2(-mirror[1], -mirror[0]), sigma))
+
+    def estimate(self) -> AxisEstimate | None:
+        c = self.config
+        if len(self._observations) < c.min_observations or self._line_of_sight_rad is None:
+            return None
+        obs = np.array(self._observations)
+        recent = obs[-c.candidates:]
+        trial = np.concatenate([recent[:, 0], recent[:, 1]])
+        costs = self._costs(obs, trial)
+        best = float(trial[int(np.argmin(costs))])
+        best = self._refined(obs, best)
+        sight = self._line_of_sight_rad
+        if abs(wrap_angle(best - sight)) < math.radians(c.coincide_deg):
+            known = True
+        else:
+            mirror = wrap_angle(2 * sight - best)
+            best_cost, mirror_cost = self._costs(obs, np.array([best, mirror]))
+            known = mirror_cost - best_cost >= c.min_margin
+        weights = 1.0 / obs[:, 2] ** 2
+        sigma = 1.0 / math.sqrt(float(np.sum(weights)))
+        return AxisEstimate(best, sigma, known)
+
+    def _costs(self, obs: np.ndarray, trial: np.ndarray) -> np.ndarray:
+        """Robust cost of each trial direction: every observation explained by its nearer candidate."""
+        limit = self.config.outlier_sigmas**2
+        da = _wrapped(trial[:, None] - obs[None, :, 0])
+        db = _wrapped(trial[:, None] - obs[None, :, 1])
+        nearest = np.minimum(da**2, db**2) / obs[None, :, 2] ** 2
+        return np.sum(np.minimum(nearest, limit), axis=1)
+
+    def _refined(self, obs: np.ndarray, around: float) -> float:
+        """Weighted mean of the candidates that agree with ``around``."""
+        da = _wrapped(obs[:, 0] - around)
+        db = _wrapped(obs[:, 1] - around)
+        nearer = np.where(np.abs(da) <= np.abs(db), da, db)
+        inlier = np.abs(nearer) <= self.config.outlier_sigmas * obs[:, 2]
+        if not np.any(inlier):
+            return around
+        weights = 1.0 / obs[inlier, 2] ** 2
+        return wrap_angle(around + float(np.sum(weights * nearer[inlier]) / np.sum(weights)))
+
+
+def _wrapped(angles: np.ndarray) -> np.ndarray:
+    return (angles + math.pi) % (2 * math.pi) - math.pi
