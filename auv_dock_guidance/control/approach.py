@@ -15,15 +15,17 @@ limit on a line a little off the axis, as an aircraft lands in a crosswind. The 
 must keep the dock in view, so the heading stays within ``fov_margin_deg`` of the dock's
 bearing until the ring is too close to matter.
 
-Close to the entrance the predicted crossing is checked: if it would miss, the verdict
-is ``would_miss`` and guidance backs off (in reverse, nose on the dock) to a point on the
-line further out, then tries again.
+Close to the entrance the crossing is predicted by flying this law on in a kinematic
+model (heading rate limit, speed lag, the current estimate): if it would miss the
+centre or arrive beyond the heading limit, the verdict is ``would_miss`` and guidance
+backs off (in reverse, nose on the dock) to a point on the line further out, then tries
+again.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import StrEnum
 
 from auv_dock_guidance.control.pid import wrap_angle
@@ -53,6 +55,11 @@ class ApproachConfig:
     line_margin_deg: float = 3.0  # in a cross current beyond the limit: the line turns this much past the drift
     commit_m: float = 3.0  # closer than this along the axis the crossing is predicted and checked
     entry_tolerance_m: float = 0.12  # predicted miss distance that makes the vehicle back off
+    entry_heading_limit_deg: float = 12.0  # predicted heading off the axis at the entry that makes it back off
+    rollout_s: float = 20.0  # the prediction flies the law on for at most this long...
+    rollout_step_s: float = 0.1  # ...in steps of this
+    turn_rate_deg_s: float = 20.0  # how fast the heading follows its goal (the cascade's setpoint rate limit)
+    speed_time_constant_s: float = 1.0
     back_off_to_m: float = 8.0  # along the line
     back_off_speed_mps: float = 0.4  # over ground
 
@@ -73,6 +80,17 @@ class Plan:
     along_m: float  # nose in front of the entrance, along the axis
     cross_m: float  # nose off the axis (starboard of the inbound path +)
     predicted_miss_m: float | None  # where the nose would cross the entrance plane, off the centre
+
+
+@dataclass(frozen=True)
+class _Geometry:
+    nose: tuple[float, float]  # relative to the entrance centre
+    distance: float
+    sight: float  # direction from the nose to the dock
+    axis_yaw: float  # direction of travel into the dock (the line of sight while the axis is not known)
+    along: float  # nose in front of the entrance, along the axis
+    cross: float  # nose off the axis, starboard of the inbound path +
+    line_yaw: float  # the approach line (the axis, turned in a cross current beyond the heading limit)
 
 
 @dataclass(frozen=True)
@@ -106,35 +124,71 @@ class ApproachPlanner:
 
     def plan(self, s: Situation, backing_off: bool) -> Plan:
         c = self.config
+        geometry = self._geometry(s)
+        if backing_off:
+            return self._back_off(s, geometry)
+        yaw, speed = self._steer(s, geometry)
+        along, cross = geometry.along, geometry.cross
+        verdict, predicted = Verdict.GO, None
+        if along < c.commit_m:
+            predicted = self._rolled_out_miss(s, yaw, speed)
+            if predicted is None or abs(predicted) > c.entry_tolerance_m:
+                verdict = Verdict.WOULD_MISS
+        return Plan(wrap_angle(yaw), speed, verdict, along, cross, predicted)
+
+    def _geometry(self, s: Situation) -> _Geometry:
         h = _unit(s.heading_rad)
         nose = (s.position_m[0] + s.camera_ahead_m * h[0], s.position_m[1] + s.camera_ahead_m * h[1])
-        distance = math.hypot(*nose)
         sight = math.atan2(-nose[1], -nose[0])  # from the nose to the dock
         axis_yaw = s.axis_yaw_rad if s.axis_yaw_rad is not None else sight
-        a = _unit(axis_yaw)
-        a_side = _unit(axis_yaw + math.pi / 2)
-        along, cross = -_dot(nose, a), _dot(nose, a_side)
-        line_yaw = axis_yaw + self._line_turn(axis_yaw, s.current_mps)
-        if backing_off:
-            return self._back_off(s, nose, sight, line_yaw, along, cross)
-        line, line_side = _unit(line_yaw), _unit(line_yaw + math.pi / 2)
-        on_line, off_line = -_dot(nose, line), _dot(nose, line_side)
+        a, a_side = _unit(axis_yaw), _unit(axis_yaw + math.pi / 2)
+        return _Geometry(nose, math.hypot(*nose), sight, axis_yaw, -_dot(nose, a), _dot(nose, a_side),
+                         axis_yaw + self._line_turn(axis_yaw, s.current_mps))
+
+    def _steer(self, s: Situation, g: _Geometry) -> tuple[float, float]:
+        """Heading goal and speed through the water on the approach."""
+        c = self.config
+        line, line_side = _unit(g.line_yaw), _unit(g.line_yaw + math.pi / 2)
+        on_line, off_line = -_dot(g.nose, line), _dot(g.nose, line_side)
         lookahead = _clamp(c.lookahead_share * on_line, c.lookahead_min_m, c.lookahead_max_m)
-        course = line_yaw - math.atan2(off_line, lookahead)
+        course = g.line_yaw - math.atan2(off_line, lookahead)
         crab_limit = math.radians(c.entry_crab_deg + (c.far_crab_deg - c.entry_crab_deg) * _clamp(
-            (along - c.crab_near_m) / (c.crab_far_m - c.crab_near_m), 0.0, 1.0))
+            (g.along - c.crab_near_m) / (c.crab_far_m - c.crab_near_m), 0.0, 1.0))
         speed, yaw = self._crab(course, s.current_mps, s.nominal_speed_mps, crab_limit)
-        limit = math.radians(c.entry_crab_deg + c.heading_limit_growth_deg_per_m * max(0.0, along - 2.0))
-        yaw = axis_yaw + _clamp(wrap_angle(yaw - axis_yaw), -limit, limit)
-        if distance > c.fov_until_m:
+        limit = math.radians(c.entry_crab_deg + c.heading_limit_growth_deg_per_m * max(0.0, g.along - 2.0))
+        yaw = g.axis_yaw + _clamp(wrap_angle(yaw - g.axis_yaw), -limit, limit)
+        if g.distance > c.fov_until_m:
             fov = math.radians(c.fov_margin_deg)
-            yaw = sight + _clamp(wrap_angle(yaw - sight), -fov, fov)
-        predicted = self._predicted_miss(s, a, a_side, along, cross)
-        verdict = Verdict.GO
-        if along < c.commit_m and abs(predicted if predicted is not None else cross) > c.entry_tolerance_m and (
-                predicted is not None or along < 1.0):  # not closing yet: only a vehicle beside the entrance
-            verdict = Verdict.WOULD_MISS
-        return Plan(wrap_angle(yaw), speed, verdict, along, cross, predicted)
+            yaw = g.sight + _clamp(wrap_angle(yaw - g.sight), -fov, fov)
+        return yaw, speed
+
+    def _rolled_out_miss(self, s: Situation, yaw: float, speed: float) -> float | None:
+        """Off-centre distance where the nose crosses the entrance plane if this law flies on from here.
+
+        A kinematic roll-out (heading turning towards its goal at ``turn_rate_deg_s``, speed
+        following its goal with ``speed_time_constant_s``, the current estimate as it is);
+        None if the nose does not reach the plane within ``rollout_s`` or the heading there is
+        beyond the entry limit.
+        """
+        c = self.config
+        dt = c.rollout_step_s
+        turn = math.radians(c.turn_rate_deg_s) * dt
+        heading, water = s.heading_rad, s.water_speed_mps
+        position = s.position_m
+        s = replace(s, axis_yaw_rad=self._geometry(s).axis_yaw)  # the line of sight, if that is the axis, stays put
+        for _ in range(int(c.rollout_s / dt)):
+            now = replace(s, position_m=position, heading_rad=heading, water_speed_mps=water)
+            g = self._geometry(now)
+            if g.along <= 0.0:
+                entry_heading = abs(wrap_angle(heading - g.axis_yaw))
+                return g.cross if entry_heading <= math.radians(c.entry_heading_limit_deg) else None
+            yaw, speed = self._steer(now, g)
+            heading += _clamp(wrap_angle(yaw - heading), -turn, turn)
+            water += (speed - water) * min(1.0, dt / c.speed_time_constant_s)
+            h = _unit(heading)
+            position = (position[0] + dt * (water * h[0] + s.current_mps[0]),
+                        position[1] + dt * (water * h[1] + s.current_mps[1]))
+        return None
 
     def _line_turn(self, axis_yaw: float, current: tuple[float, float]) -> float:
         """How far the approach line turns off the axis so that the drift at the heading limit ends in the centre."""
@@ -160,29 +214,20 @@ class ApproachPlanner:
         crab = math.asin(_clamp(across / speed, -1.0, 1.0))
         return speed, course - crab
 
-    def _predicted_miss(self, s: Situation, a: tuple[float, float], a_side: tuple[float, float], along: float,
-                        cross: float) -> float | None:
-        """Off-centre distance where the nose would cross the entrance plane on the present velocity."""
-        h = _unit(s.heading_rad)
-        ground = (s.water_speed_mps * h[0] + s.current_mps[0], s.water_speed_mps * h[1] + s.current_mps[1])
-        closing = _dot(ground, a)
-        if closing <= 0.05:
-            return None
-        return cross + _dot(ground, a_side) * max(along, 0.0) / closing
-
-    def _back_off(self, s: Situation, nose: tuple[float, float], sight: float, line_yaw: float, along: float,
-                  cross: float) -> Plan:
+    def _back_off(self, s: Situation, g: _Geometry) -> Plan:
         """In reverse, nose on the dock, to a point on the line further out."""
         c = self.config
-        line = _unit(line_yaw)
+        line = _unit(g.line_yaw)
         goal = (-c.back_off_to_m * line[0], -c.back_off_to_m * line[1])
-        to_goal = (goal[0] - nose[0], goal[1] - nose[1])
+        to_goal = (goal[0] - g.nose[0], goal[1] - g.nose[1])
         gap = math.hypot(*to_goal)
-        verdict = Verdict.BACKED_OFF if gap < 1.0 or along >= c.back_off_to_m - 0.5 else Verdict.GO
+        verdict = Verdict.BACKED_OFF if gap < 1.0 or g.along >= c.back_off_to_m - 0.5 else Verdict.GO
         want = (c.back_off_speed_mps * to_goal[0] / max(gap, 1e-6), c.back_off_speed_mps * to_goal[1] / max(gap, 1e-6))
         water = (want[0] - s.current_mps[0], want[1] - s.current_mps[1])
         speed = -min(math.hypot(*water), c.max_speed_mps)
-        yaw = math.atan2(-water[1], -water[0])
+        wanted = math.atan2(-water[1], -water[0])
         fov = math.radians(c.fov_margin_deg)
-        yaw = sight + _clamp(wrap_angle(yaw - sight), -fov, fov)
-        return Plan(wrap_angle(yaw), speed, verdict, along, cross, None)
+        yaw = g.sight + _clamp(wrap_angle(wanted - g.sight), -fov, fov)
+        if abs(wrap_angle(yaw - wanted)) > 1e-6:  # the camera limits the heading: make up with speed
+            speed = -c.max_speed_mps
+        return Plan(wrap_angle(yaw), speed, verdict, g.along, g.cross, None)

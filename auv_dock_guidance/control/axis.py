@@ -41,7 +41,7 @@ class AxisConfig:
 class AxisEstimate:
     yaw_rad: float  # direction of travel into the dock (level frame, yaw convention of the navigation)
     sigma_rad: float
-    known: bool  # told apart from its mirror image (or on the axis, where there is none)
+    known: bool  # told apart from its mirror image (or on the axis, where there is none); else a guess
 
 
 class AxisEstimator:
@@ -52,6 +52,8 @@ class AxisEstimator:
     def reset(self) -> None:
         self._observations: deque[tuple[float, float, float]] = deque(maxlen=self.config.memory)  # a, b, sigma
         self._line_of_sight_rad: float | None = None  # direction from the vehicle to the dock
+        self._chosen: float | None = None  # the last estimate: kept over its mirror until the mirror is clearly better
+        self._estimate: AxisEstimate | None = None
 
     def observe(self, target: Target, ring_normal_optical: tuple[float, float, float], attitude: Attitude) -> None:
         c = self.config
@@ -68,8 +70,13 @@ class AxisEstimator:
         self._line_of_sight_rad = math.atan2(dock[1], dock[0])
         sigma = math.radians(c.noise_deg_at_zero + c.noise_deg_per_m2 * distance**2)
         self._observations.append((math.atan2(-normal[1], -normal[0]), math.atan2(-mirror[1], -mirror[0]), sigma))
+        self._estimate = self._estimated()
 
     def estimate(self) -> AxisEstimate | None:
+        """The estimate as of the last observation."""
+        return self._estimate
+
+    def _estimated(self) -> AxisEstimate | None:
         c = self.config
         if len(self._observations) < c.min_observations or self._line_of_sight_rad is None:
             return None
@@ -86,6 +93,10 @@ class AxisEstimator:
             mirror = wrap_angle(2 * sight - best)
             best_cost, mirror_cost = self._costs(obs, np.array([best, mirror]))
             known = mirror_cost - best_cost >= c.min_margin
+            if not known and self._chosen is not None and \
+                    abs(wrap_angle(mirror - self._chosen)) < abs(wrap_angle(best - self._chosen)):
+                best = mirror  # as good as undecided: stay on the side chosen before (no flip-flopping)
+        self._chosen = best
         weights = 1.0 / obs[:, 2] ** 2
         sigma = 1.0 / math.sqrt(float(np.sum(weights)))
         return AxisEstimate(best, sigma, known)

@@ -19,7 +19,8 @@ States:
   on the approach line further out, then TRACK again. Drives like TRACK (a fresh
   detection within ``track_lost_timeout_s``); more than ``max_retries``: ABORT.
 * DOCKED: the main controller reports the latch, or in TERMINAL the dead-reckoned run
-  since the last sighting covers the last range plus a margin.
+  since the last sighting covers the last range plus a margin (on the approach path: the
+  tracked nose, own motion and drift, is that margin past the entrance).
 * ABORT: marker lost too long, search timed out, telemetry stale or no camera frame
   while driving (TRACK, TERMINAL), attitude out of limits. Neutral thrust. An ABORT for
   lost telemetry or camera returns to SEARCH once both have been healthy for
@@ -323,7 +324,7 @@ class Guidance:
         range_m = math.hypot(*fix.position_m)
         situation = Situation(
             position_m=fix.position_m, current_mps=fix.current_mps, heading_rad=attitude.yaw_rad,
-            water_speed_mps=self._water_speed, axis_yaw_rad=axis.yaw_rad if axis is not None and axis.known else None,
+            water_speed_mps=self._water_speed, axis_yaw_rad=axis.yaw_rad if axis is not None else None,
             camera_ahead_m=self.config.tracker.camera_ahead_m,
             nominal_speed_mps=self.cascade.speed_for_range(range_m - self.config.tracker.camera_ahead_m),
         )
@@ -403,7 +404,10 @@ class Guidance:
                 new_state, reason = State.SEARCH, f"marker lost for {lost_for:.1f} s"
         elif previous is State.TERMINAL:
             last_range = self._last_target.range_m if self._last_target else 0.0
-            if target is None and self._run_since_sighting >= last_range + c.dock_margin_m:
+            if target is None and plan is not None and plan.along_m <= -c.dock_margin_m:
+                new_state = State.DOCKED  # the tracked nose (own motion and drift since the last sighting)
+                reason = f"nose {-plan.along_m:.2f} m past the entrance by the track since the last sighting"
+            elif target is None and plan is None and self._run_since_sighting >= last_range + c.dock_margin_m:
                 new_state = State.DOCKED
                 reason = f"ran {self._run_since_sighting:.2f} m past the last sighting at {last_range:.2f} m"
             elif lost_for > c.terminal_lost_timeout_s and last_range - self._run_since_sighting > c.blind_range_m:

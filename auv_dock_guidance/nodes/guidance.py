@@ -30,10 +30,12 @@ from sensor_msgs.msg import Imu
 from std_msgs.msg import Bool, Float64, MultiArrayDimension, String, UInt16MultiArray
 from std_srvs.srv import Trigger
 
+from auv_dock_guidance.control.approach import ApproachConfig
 from auv_dock_guidance.control.cascade import Attitude, CascadeConfig, Target
 from auv_dock_guidance.control.guidance import Guidance, GuidanceConfig, GuidanceOutput, State
 from auv_dock_guidance.control.mixer import MixerConfig
 from auv_dock_guidance.control.pid import PidGains
+from auv_dock_guidance.control.tracker import TrackerConfig
 from auv_dock_guidance.errors import DockGuidanceError
 from auv_dock_guidance.nodes.common import (
     MOUNTING_PARAMS,
@@ -73,10 +75,15 @@ PARAMS = [
     Param("inner.ki", 0.1, "inner loop integral gain", 0.0, 50.0),
     Param("inner.kd", 0.6, "inner loop derivative gain", 0.0, 50.0),
     Param("max_turn_deg", 25.0, "largest yaw turn the outer loop may ask for (deg)", 1.0, 90.0),
+    Param("velocity_steering", True, "track the dock in the level frame and crab into the estimated current"),
+    Param("axis_alignment", True, "line up with the dock's axis (ring normals on dock/axis) before the entry"),
+    Param("max_retries", 3, "back off and retry this often when the entry would miss, then abort", 0, 20),
+    Param("max_speed_mps", 0.9, "fastest approach through the water, used against a cross current (m/s)", 0.1, 5.0),
+    Param("entry_crab_deg", 8.0, "largest heading off the dock's axis for the last metres (deg)", 1.0, 30.0),
 ]
 
 
-def guidance_config(v: dict[str, Any], mixer: MixerConfig) -> GuidanceConfig:
+def guidance_config(v: dict[str, Any], mixer: MixerConfig, camera_ahead_m: float = 0.9) -> GuidanceConfig:
     turn = math.radians(v["max_turn_deg"])
     outer = PidGains(kp=v["outer.kp"], ki=v["outer.ki"], output_limit=turn)
     inner = PidGains(kp=v["inner.kp"], ki=v["inner.ki"], kd=v["inner.kd"], output_limit=0.6)
@@ -85,7 +92,10 @@ def guidance_config(v: dict[str, Any], mixer: MixerConfig) -> GuidanceConfig:
         cruise_speed_mps=v["cruise_speed_mps"], terminal_speed_mps=v["terminal_speed_mps"],
         full_thrust_speed_mps=v["full_thrust_speed_mps"],
     )
+    approach = ApproachConfig(max_speed_mps=v["max_speed_mps"], entry_crab_deg=v["entry_crab_deg"])
     return GuidanceConfig(
+        velocity_steering=v["velocity_steering"], axis_alignment=v["axis_alignment"], max_retries=v["max_retries"],
+        approach=approach, tracker=TrackerConfig(camera_ahead_m=camera_ahead_m),
         confirm_frames=v["confirm_frames"], terminal_range_m=v["terminal_range_m"], blind_range_m=v["blind_range_m"],
         track_lost_timeout_s=v["track_lost_timeout_s"], terminal_lost_timeout_s=v["terminal_lost_timeout_s"],
         terminal_blind_timeout_s=v["terminal_blind_timeout_s"],
@@ -102,7 +112,7 @@ class GuidanceNode(Node):
         self.mounting = camera_mounting(declare(self, MOUNTING_PARAMS))
         path = self.values["thrusters_file"]
         self.mixer_config = MixerConfig.from_yaml(path) if path else MixerConfig()
-        self.guidance = Guidance(guidance_config(self.values, self.mixer_config))
+        self.guidance = Guidance(guidance_config(self.values, self.mixer_config, self.mounting.x_m))
         on_parameter_change(self, self._apply_parameters)
         self.create_subscription(PointStamped, "dock/target", self._on_target, 10)
         self.create_subscription(Imu, "vehicle/imu", self._on_imu, 10)
@@ -131,7 +141,7 @@ class GuidanceNode(Node):
     def _apply_parameters(self, changes: dict[str, Any]) -> str | None:
         values = {**self.values, **changes}
         try:
-            config = guidance_config(values, self.mixer_config)
+            config = guidance_config(values, self.mixer_config, self.mounting.x_m)
         except DockGuidanceError as exc:
             return str(exc)
         self.values = values

@@ -68,13 +68,91 @@ def summarize(results: list[EpisodeResult]) -> dict[str, Any]:
         "entry_heading_error_deg_p50": float(np.percentile(heading, 50)) if heading else None,
         "entry_heading_error_deg_p95": float(np.percentile(heading, 95)) if heading else None,
         "max_detection_range_m": max(ranges) if ranges else None,
+        "retries": sum(r.retries for r in results),
+        "episodes_with_retries": sum(1 for r in results if r.retries),
+        "docked_after_retrying": sum(1 for r in ok if r.retries),
         "failed_seeds": [r.seed for r in results if not r.success],
+        "by_start_bin": by_start_bin(results),
     }
 
 
 STATE_MARKS_UP_TO = 10  # episodes: beyond this the plot marks no states (it would be a blur of dots)
 STATE_STYLES = {"SEARCH": ("o", "tab:gray"), "TRACK": ("s", "tab:blue"), "TERMINAL": ("^", "tab:orange"),
                 "DOCKED": ("*", "tab:green"), "ABORT": ("X", "tab:red")}
+
+
+# Bin edges of the start conditions results are reported by (the last bin is open above).
+RANGE_EDGES_M = (0.0, 10.0, 15.0, 20.0, 25.0)
+OFF_AXIS_EDGES_DEG = (0.0, 10.0, 20.0, 30.0)
+CURRENT_EDGES_MPS = (0.0, 0.1, 0.2)
+CROSS_CURRENT_EDGES_MPS = (0.0, 0.05, 0.1, 0.15, 0.2, 0.25)
+
+
+def _bin_label(value: float, edges: tuple[float, ...]) -> str:
+    i = max(j for j, edge in enumerate(edges) if value >= edge or j == 0)
+    return f"{edges[i]:g}-{edges[i + 1]:g}" if i + 1 < len(edges) else f">={edges[i]:g}"
+
+
+def by_start_bin(results: list[EpisodeResult]) -> dict[str, dict[str, dict[str, Any]]]:
+    """Success by start range, angle off the dock's axis, current speed and its part across the axis."""
+    keys = {
+        "range_m": (lambda r: r.start_range_m, RANGE_EDGES_M),
+        "off_axis_deg": (lambda r: r.start_off_axis_deg, OFF_AXIS_EDGES_DEG),
+        "current_mps": (lambda r: r.current_mps, CURRENT_EDGES_MPS),
+        "cross_current_mps": (lambda r: r.cross_current_mps, CROSS_CURRENT_EDGES_MPS),
+    }
+    bins: dict[str, dict[str, dict[str, Any]]] = {}
+    for name, (value, edges) in keys.items():
+        groups: dict[str, list[EpisodeResult]] = {}
+        for r in results:
+            groups.setdefault(_bin_label(value(r), edges), []).append(r)
+        bins[name] = {label: _bin_summary(group) for label, group in
+                      sorted(groups.items(), key=lambda item: float(item[0].lstrip(">=").split("-")[0]))}
+    return bins
+
+
+def _bin_summary(group: list[EpisodeResult]) -> dict[str, Any]:
+    docked = sum(r.success for r in group)
+    failures = dict(Counter(r.reason for r in group if not r.success))
+    return {"episodes": len(group), "docked": docked, "rate": docked / len(group),
+            "retries": sum(r.retries for r in group), "failures": failures}
+
+
+def plot_envelope(results: list[EpisodeResult], folder: Path, title: str = "") -> Path:
+    """Success over the start's angle off the dock's axis and the current across it, as one PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    folder.mkdir(parents=True, exist_ok=True)
+    off_edges = np.array([*OFF_AXIS_EDGES_DEG, 40.0])
+    cross_edges = np.array([*CROSS_CURRENT_EDGES_MPS, 0.3])
+    rate = np.full((len(cross_edges) - 1, len(off_edges) - 1), np.nan)
+    count = np.zeros_like(rate, dtype=int)
+    docked = np.zeros_like(rate, dtype=int)
+    for r in results:
+        i = min(int(np.searchsorted(cross_edges, r.cross_current_mps, side="right")) - 1, len(cross_edges) - 2)
+        j = min(int(np.searchsorted(off_edges, r.start_off_axis_deg, side="right")) - 1, len(off_edges) - 2)
+        count[i, j] += 1
+        docked[i, j] += r.success
+    rate[count > 0] = docked[count > 0] / count[count > 0]
+    fig, ax = plt.subplots(figsize=(7, 4.8))
+    image = ax.pcolormesh(off_edges, cross_edges, rate, vmin=0.0, vmax=1.0, cmap="RdYlGn")
+    for i in range(rate.shape[0]):
+        for j in range(rate.shape[1]):
+            if count[i, j]:
+                ax.text(0.5 * (off_edges[j] + off_edges[j + 1]), 0.5 * (cross_edges[i] + cross_edges[i + 1]),
+                        f"{docked[i, j]}/{count[i, j]}", ha="center", va="center", fontsize=9)
+    fig.colorbar(image, ax=ax, label="share docked")
+    ax.set_xlabel("start: angle off the dock's axis, seen from the dock (deg)")
+    ax.set_ylabel("current across the dock's axis (m/s)")
+    ax.set_title(f"{title} docked / episodes by start".strip())
+    fig.tight_layout()
+    path = folder / "success_envelope.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
 
 
 def plot(results: list[EpisodeResult], folder: Path, dock_x: float = 28.0, dock_depth: float = 2.0,

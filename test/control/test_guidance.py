@@ -5,6 +5,7 @@ from auv_dock_guidance.control.guidance import Guidance, GuidanceConfig, State
 from auv_dock_guidance.sim.main_controller import SimpleVehicle
 
 PU, SU, PL, SL = range(4)
+PAPER = GuidanceConfig(velocity_steering=False, axis_alignment=False)  # bearing homing, as in the paper
 
 
 def level(t: float, yaw: float = 0.0, pitch: float = 0.0) -> Attitude:
@@ -70,7 +71,7 @@ def test_attitude_out_of_limits_aborts():
 
 
 def test_terminal_holds_course_through_dropouts_then_docks_by_dead_reckoning():
-    g = Guidance()
+    g = Guidance(PAPER)  # a dock that stays put while the vehicle runs: only the paper's homing takes that
     run(g, 1.0, lambda t: target(t, range_m=1.2))
     assert g.state is State.TERMINAL
     outs = run(g, 20.0, lambda t: None, start=1.0)
@@ -82,7 +83,7 @@ def test_terminal_holds_course_through_dropouts_then_docks_by_dead_reckoning():
 
 def test_yaw_converges_on_the_bearing_in_closed_loop():
     vehicle = SimpleVehicle()  # turns but does not travel: the paper's bearing homing, not the approach path
-    g = Guidance(GuidanceConfig(velocity_steering=False, axis_alignment=False))
+    g = Guidance(PAPER)
     dock_bearing = math.radians(10)
     t, dt = 0.0, 0.02
     for _ in range(int(20 / dt)):
