@@ -6,18 +6,30 @@ overrides use the node-qualified form (``-p detector:marker_radius_m:=0.4``) so 
 the node's own section of the file. The environment selects the shared-memory Fast DDS
 profile (UDP only for guidance and serial_bridge) and, unless told otherwise,
 localhost-only discovery.
+
+Every command that starts nodes (run, demo, soak, bench --latency) owns their processes:
+it stops them on SIGINT, SIGTERM and SIGHUP alike (``stop_on_signals``), announces the ROS
+domain they use and how to watch it (``announce``), and lists itself in a small registry
+under $XDG_RUNTIME_DIR (or /tmp) while it runs, so `auv-dock monitor` and `foxglove` find
+a single running system on this machine without being told its domain (``running_systems``).
 """
 
 from __future__ import annotations
 
+import json
 import os
+import random
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, TextIO
 
 from auv_dock_guidance.resources import config_file
 
@@ -37,6 +49,8 @@ VISION_SEPARATE = ["camera_ingest", "detector", "guidance", "serial_bridge"]
 # Fast DDS port lock behind that leaves its restart deaf (see config/fastdds_udp_only.xml).
 UDP_ONLY = {"guidance", "serial_bridge"}
 PROFILES_VARIABLE = "FASTRTPS_DEFAULT_PROFILES_FILE"
+BRIDGE = "serial_bridge"  # stopped first: it leaves the thrusters neutral as it closes
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 
 def rss_mb(pid: int) -> float:
@@ -123,10 +137,11 @@ class NodeGroup:
         return {n: p.returncode for n, p in self.processes.items() if p.poll() is not None}
 
     def stop(self, timeout_s: float = 5.0) -> dict[str, int | None]:
-        """Ctrl-C each node, wait, then terminate and kill what is left."""
-        for p in self.processes.values():
-            if p.poll() is None:
-                p.send_signal(signal.SIGINT)
+        """Ctrl-C each node (the serial bridge first: neutral before anything else), wait, then
+        terminate and kill what is left."""
+        for name in sorted(self.processes, key=lambda n: n != BRIDGE):
+            if self.processes[name].poll() is None:
+                self.processes[name].send_signal(signal.SIGINT)
         deadline = time.monotonic() + timeout_s
         for sig in (signal.SIGTERM, signal.SIGKILL):
             for p in self.processes.values():
@@ -136,6 +151,8 @@ class NodeGroup:
                 except subprocess.TimeoutExpired:
                     p.send_signal(sig)
             deadline = time.monotonic() + 2.0
+        for p in self.processes.values():
+            p.wait()  # reaped: nothing is left behind, even after SIGKILL
         for log in self._logs:
             log.close()
         return {n: p.returncode for n, p in self.processes.items()}
@@ -145,3 +162,126 @@ class NodeGroup:
 
     def __exit__(self, *exc: object) -> None:
         self.stop()
+
+
+class StopRequested(KeyboardInterrupt):
+    """SIGTERM or SIGHUP (a supervisor's stop, a closed terminal): handled exactly as Ctrl-C."""
+
+
+@contextmanager
+def stop_on_signals() -> Iterator[None]:
+    """SIGINT, SIGTERM and SIGHUP raise KeyboardInterrupt once in the main thread, so the
+    owner of the node processes runs the same cleanup for each; a repeated signal while it
+    cleans up is ignored (the cleanup is bounded: NodeGroup.stop kills what does not stop)."""
+    stopping = False
+
+    def handler(signum: int, _frame: object) -> None:
+        nonlocal stopping
+        if stopping:
+            print(f"auv-dock: {signal.Signals(signum).name} again: still stopping the nodes", file=sys.stderr,
+                  flush=True)
+            return
+        stopping = True
+        if signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        raise StopRequested(signal.Signals(signum).name)
+
+    previous = {sig: signal.getsignal(sig) for sig in STOP_SIGNALS}
+    for sig in STOP_SIGNALS:
+        signal.signal(sig, handler)
+    try:
+        yield
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old if old is not None else signal.SIG_DFL)
+
+
+def _registry_folder() -> Path:
+    runtime = os.environ.get("XDG_RUNTIME_DIR")
+    base = Path(runtime) if runtime and os.access(runtime, os.W_OK) else Path(tempfile.gettempdir())
+    return base / f"auv-dock-{os.getuid()}"
+
+
+def _start_ticks(pid: int) -> str | None:
+    """The process's start time in clock ticks since boot: with the pid, it names one process
+    (a pid reused by another process after ours ended has another start time)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return None
+    return stat.rsplit(")", 1)[1].split()[19]
+
+
+@dataclass(frozen=True)
+class RunningSystem:
+    pid: int
+    domain_id: int
+    command: str
+    localhost_only: bool
+
+
+def running_systems() -> list[RunningSystem]:
+    """The auv-dock commands running nodes on this machine now; entries of ended ones are removed."""
+    folder = _registry_folder()
+    found = []
+    for entry in sorted(folder.glob("*.json")) if folder.is_dir() else []:
+        try:
+            data = json.loads(entry.read_text())
+            system = RunningSystem(int(data["pid"]), int(data["domain_id"]), str(data["command"]),
+                                   bool(data["localhost_only"]))
+            alive = _start_ticks(system.pid) == data["start_ticks"]
+        except (OSError, ValueError, KeyError, TypeError):
+            continue  # being written, or not ours
+        if alive:
+            found.append(system)
+        else:
+            entry.unlink(missing_ok=True)
+    return found
+
+
+@contextmanager
+def registered(domain_id: int, command: str, localhost_only: bool = True) -> Iterator[None]:
+    """This process is listed as running ``command`` on ``domain_id`` until the block ends."""
+    folder = _registry_folder()
+    entry = folder / f"{os.getpid()}.json"
+    try:
+        folder.mkdir(mode=0o700, parents=True, exist_ok=True)
+        partial = entry.with_suffix(".tmp")
+        partial.write_text(json.dumps({"pid": os.getpid(), "start_ticks": _start_ticks(os.getpid()),
+                                       "domain_id": domain_id, "command": command,
+                                       "localhost_only": localhost_only}))
+        partial.replace(entry)  # readers never see half a file
+    except OSError as exc:  # watching needs --domain-id then; the run itself goes on
+        print(f"auv-dock: note: cannot list this run in {folder} ({exc.strerror})", file=sys.stderr)
+    try:
+        yield
+    finally:
+        entry.unlink(missing_ok=True)
+
+
+def private_domain_id() -> int:
+    """A ROS domain for a simulated system: from this process id, avoiding those of systems already
+    running here, so parallel runs on one machine never hear each other."""
+    taken = {s.domain_id for s in running_systems()}
+    rng = random.Random(os.getpid())
+    choices = [d for d in range(30, 201) if d not in taken]
+    return rng.choice(choices) if choices else rng.randint(30, 200)
+
+
+def command_name() -> str:
+    """How to type auv-dock here: its name if the shell finds this one, else its path."""
+    script = Path(sys.argv[0])
+    if script.name == "auv-dock":
+        on_path = shutil.which("auv-dock")
+        if on_path and Path(on_path).resolve() == script.resolve():
+            return "auv-dock"
+        return str(script)
+    return f"{sys.executable} -m auv_dock_guidance.cli.main"
+
+
+def announce(domain_id: int, stream: TextIO | None = None) -> None:
+    """First thing a command that starts nodes says: where they talk, and how to watch them."""
+    me = command_name()
+    print(f"ROS domain {domain_id}; watch it live from another terminal:\n"
+          f"  {me} monitor --domain-id {domain_id}\n"
+          f"  {me} foxglove --domain-id {domain_id}", file=stream or sys.stdout, flush=True)

@@ -7,19 +7,18 @@ render from. Needs rclpy (imported here, never by the core).
 
 from __future__ import annotations
 
-import os
-import random
 import time
 from pathlib import Path
 
 import numpy as np
 import rclpy
 from geometry_msgs.msg import PoseStamped
+from rclpy.signals import SignalHandlerOptions
 from std_srvs.srv import Trigger
 
 from auv_dock_guidance.geometry.mounting import CameraMounting
 from auv_dock_guidance.geometry.rotations import rep103_quaternion
-from auv_dock_guidance.launcher import VISION_COMBINED, NodeGroup, ros_environment
+from auv_dock_guidance.launcher import VISION_COMBINED, NodeGroup, private_domain_id, ros_environment
 from auv_dock_guidance.nodes.conversions import seconds_stamp, vehicle_to_pose
 from auv_dock_guidance.recording import BagRecorder, FrameTransform
 from auv_dock_guidance.sim.main_controller import MainControllerSim
@@ -30,11 +29,14 @@ WORLD_FRAME = "pool"  # the simulated pool (REP 103: x along the pool towards th
 
 
 class SimulatedSystem:
-    def __init__(self, world: PoolWorld, start: VehiclePose, log_dir: Path, seed: int = 7) -> None:
+    """Its owner handles the stop signals (launcher.stop_on_signals): rclpy installs none here."""
+
+    def __init__(self, world: PoolWorld, start: VehiclePose, log_dir: Path, seed: int = 7,
+                 domain_id: int | None = None) -> None:
         self.world = world
         self.vehicle = AuvDynamics(start, seed=seed)
         self.controller = MainControllerSim(vehicle=self.vehicle)
-        self.domain = random.Random(os.getpid()).randint(30, 200)
+        self.domain = domain_id if domain_id is not None else private_domain_id()
         self.group = NodeGroup(
             VISION_COMBINED,
             overrides={
@@ -44,7 +46,7 @@ class SimulatedSystem:
             env=ros_environment(domain_id=self.domain),
             log_dir=log_dir,
         )
-        rclpy.init(domain_id=self.domain)
+        rclpy.init(domain_id=self.domain, signal_handler_options=SignalHandlerOptions.NO)
         self.node = rclpy.create_node("simulator")
         publisher = self.node.create_publisher(PoseStamped, "sim/vehicle_pose", 1)
         self.node.create_timer(
@@ -95,8 +97,9 @@ class SimulatedSystem:
         return bool(self.world.camera_position(self.vehicle.pose)[0] >= self.world.dock_x_m)
 
     def stop(self) -> dict[str, int | None]:
-        self.node.destroy_node()
-        rclpy.try_shutdown()
+        """The node processes first (the bridge leaves the thrusters neutral at the controller), then our own."""
         codes = self.group.stop()
         self.controller.stop()
+        self.node.destroy_node()
+        rclpy.try_shutdown()
         return codes

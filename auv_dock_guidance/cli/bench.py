@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
-import random
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -14,10 +13,20 @@ from typing import Any
 import cv2
 import numpy as np
 
-from auv_dock_guidance.cli.common import positive_float, positive_int, print_json, rate_hz, rounded
+from auv_dock_guidance.cli.common import domain_id, positive_float, positive_int, print_json, rate_hz, rounded
 from auv_dock_guidance.cli.progress import Progress
 from auv_dock_guidance.geometry.camera import paper_camera
-from auv_dock_guidance.launcher import VISION_COMBINED, VISION_SEPARATE, NodeGroup, ros_environment, rss_mb
+from auv_dock_guidance.launcher import (
+    VISION_COMBINED,
+    VISION_SEPARATE,
+    NodeGroup,
+    announce,
+    private_domain_id,
+    registered,
+    ros_environment,
+    rss_mb,
+    stop_on_signals,
+)
 from auv_dock_guidance.sim.main_controller import MainControllerSim
 from auv_dock_guidance.sim.scene import Lamp, SceneSpec, render
 from auv_dock_guidance.vision.detector import Detector, DetectorConfig, PaperBaseline
@@ -36,6 +45,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--separate-vision", action="store_true", help="camera_ingest and detector as two processes")
     p.add_argument("--frames", type=positive_int, default=120,
                    help="frames for the detector timings (default %(default)s)")
+    p.add_argument("--domain-id", type=domain_id, help="ROS_DOMAIN_ID of the nodes (default: a free one from 30-200)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=run)
 
@@ -44,7 +54,10 @@ def run(args: argparse.Namespace) -> int:
     report: dict[str, Any] = {}
     if not args.latency:
         report.update(detector_bench(args.frames))
-    report.update(latency_bench(args.seconds, args.rate, not args.separate_vision))
+    domain = args.domain_id if args.domain_id is not None else private_domain_id()
+    with stop_on_signals(), registered(domain, "bench --latency"):
+        announce(domain, sys.stderr if args.json else sys.stdout)
+        report.update(latency_bench(args.seconds, args.rate, not args.separate_vision, domain))
     if args.json:
         print_json(report)
     else:
@@ -128,13 +141,18 @@ def _approach_frames(folder: Path, count: int = 12) -> None:
         cv2.imwrite(str(folder / f"frame_{i:03d}.png"), render(camera, spec)[0])
 
 
-def latency_bench(seconds: float, rate_hz: float, combined_vision: bool = True) -> dict[str, Any]:
-    """Frame publish -> thruster command on the serial line, across the real node processes."""
+def latency_bench(seconds: float, rate_hz: float, combined_vision: bool = True,
+                  domain: int | None = None) -> dict[str, Any]:
+    """Frame publish -> thruster command on the serial line, across the real node processes.
+
+    Its caller handles the stop signals (launcher.stop_on_signals): a stop ends the nodes in
+    the finally below, the serial bridge first."""
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
+    from rclpy.signals import SignalHandlerOptions
     from std_msgs.msg import Bool, Float64
 
-    domain = random.Random(os.getpid()).randint(30, 200)
+    domain = domain if domain is not None else private_domain_id()
     with tempfile.TemporaryDirectory(prefix="auv-dock-bench-") as tmp:
         folder = Path(tmp) / "frames"
         folder.mkdir()
@@ -150,7 +168,7 @@ def latency_bench(seconds: float, rate_hz: float, combined_vision: bool = True) 
             env=ros_environment(domain_id=domain),
             log_dir=Path(tmp) / "logs",
         )
-        rclpy.init(domain_id=domain)
+        rclpy.init(domain_id=domain, signal_handler_options=SignalHandlerOptions.NO)
         node = rclpy.create_node("latency_bench")
         latencies: list[float] = []
         processed = [0]
@@ -170,9 +188,9 @@ def latency_bench(seconds: float, rate_hz: float, combined_vision: bool = True) 
         node.create_subscription(Float64, "bridge/latency", on_latency, 100)
         node.create_subscription(Bool, "dock/detected", on_detected, 100)
         node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 10)
-        group.start()
         progress = Progress("latency", int(seconds))
         try:
+            group.start()
             warmup_end = time.monotonic() + 6.0  # start-up and DDS discovery
             while time.monotonic() < warmup_end:
                 rclpy.spin_once(node, timeout_sec=0.1)
@@ -190,10 +208,10 @@ def latency_bench(seconds: float, rate_hz: float, combined_vision: bool = True) 
             vision = group.processes["vision_pipeline" if combined_vision else "detector"].pid
             vision_rss = rss_mb(vision)
         finally:
-            node.destroy_node()
-            rclpy.try_shutdown()
             group.stop()
             controller.stop()
+            node.destroy_node()
+            rclpy.try_shutdown()
     ms = np.array(latencies) * 1000.0
     return {
         "frames": frames,

@@ -73,6 +73,15 @@ domain_id = Number(int, low=0, high=232)  # ROS 2: the largest domain whose DDS 
 tcp_port = Number(int, low=1, high=65535)
 
 
+def domain_from_environment() -> int:
+    """$ROS_DOMAIN_ID as ROS reads it (unset or empty: 0), refused with a message if unusable."""
+    text = os.environ.get("ROS_DOMAIN_ID", "").strip()
+    try:
+        return int(domain_id(text)) if text else 0
+    except argparse.ArgumentTypeError as exc:
+        fail(f"ROS_DOMAIN_ID: {exc}")
+
+
 def folder_to_write(text: str) -> str:
     """A folder the command will write into: an existing folder, or one it can create."""
     path = Path(text)

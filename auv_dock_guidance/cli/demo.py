@@ -17,7 +17,8 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-from auv_dock_guidance.cli.common import fail, folder_to_write, positive_float
+from auv_dock_guidance.cli.common import domain_id, fail, folder_to_write, positive_float
+from auv_dock_guidance.launcher import StopRequested, announce, private_domain_id, registered, stop_on_signals
 from auv_dock_guidance.sim.closed_loop import EpisodeResult, entry_outcome
 from auv_dock_guidance.sim.monte_carlo import plot
 from auv_dock_guidance.sim.report import OverlayFrame, distance_along, write_run_pictures
@@ -35,10 +36,21 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--scenario", choices=["clear", "reflection"], default="reflection")
     p.add_argument("--report", metavar="DIR", type=folder_to_write, help="report folder (default reports/demo-<time>)")
     p.add_argument("--timeout", type=positive_float, default=100.0, help="give up after this many seconds")
+    p.add_argument("--domain-id", type=domain_id, help="ROS_DOMAIN_ID of the nodes (default: a free one from 30-200)")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    report = Path(args.report or f"reports/demo-{datetime.now():%Y%m%d-%H%M%S}")
+    if report.exists() and any(report.iterdir()):
+        fail(f"report folder {report} is not empty; choose another with --report")
+    domain = args.domain_id if args.domain_id is not None else private_domain_id()
+    with stop_on_signals(), registered(domain, "demo"):
+        announce(domain)
+        return _demo(args, report, domain)
+
+
+def _demo(args: argparse.Namespace, report: Path, domain: int) -> int:
     import rclpy
     from geometry_msgs.msg import Vector3Stamped
     from sensor_msgs.msg import CompressedImage
@@ -48,13 +60,10 @@ def run(args: argparse.Namespace) -> int:
     from auv_dock_guidance.recording import DEBUG_TOPICS, BagRecorder
     from auv_dock_guidance.sim_system import SimulatedSystem
 
-    report = Path(args.report or f"reports/demo-{datetime.now():%Y%m%d-%H%M%S}")
-    if report.exists() and any(report.iterdir()):
-        fail(f"report folder {report} is not empty; choose another with --report")
     report.mkdir(parents=True, exist_ok=True)
     world = PoolWorld(reflection=args.scenario == "reflection")
     start = VehiclePose(x=world.dock_x_m - 12.0, y=1.0, z=-world.dock_depth_m + 0.5, yaw=math.radians(5.0))
-    system = SimulatedSystem(world, start, report / "logs")
+    system = SimulatedSystem(world, start, report / "logs", domain_id=domain)
     node, vehicle = system.node, system.vehicle
     seen: dict[str, Any] = {"state": "starting", "bearing": None}
 
@@ -87,15 +96,15 @@ def run(args: argparse.Namespace) -> int:
     node.create_subscription(CompressedImage, "dock/debug_image/compressed", on_overlay, 10)
     recorder = BagRecorder(node, report / "debug_bag", DEBUG_TOPICS)
     system.record_transforms(recorder)
-    system.start()
-    print(f"demo: {args.scenario} pool, vehicle 12 m out, 1 m to the side, 0.5 m above the dock; report in {report}",
-          flush=True)
     trajectory: list[tuple[float, float, float, float, float]] = []  # t, nose x, y, z, yaw
     outcome = "timeout"
     lateral: float | None = None  # entry errors, once the nose crosses the entrance plane
     heading: float | None = None
     last_print = 0.0
     try:
+        system.start()
+        print(f"demo: {args.scenario} pool, vehicle 12 m out, 1 m to the side, 0.5 m above the dock; "
+              f"report in {report}", flush=True)
         while (elapsed := time.monotonic() - t0) < args.timeout:
             rclpy.spin_once(node, timeout_sec=0.05)
             p = vehicle.pose
@@ -117,11 +126,12 @@ def run(args: argparse.Namespace) -> int:
             if system.group.exited():
                 outcome = f"node stopped: {system.group.exited()}"
                 break
-    except KeyboardInterrupt:
-        outcome = "interrupted"
-    duration = time.monotonic() - t0
-    recorder.close()
-    codes = system.stop()
+    except KeyboardInterrupt as exc:
+        outcome = f"stopped by {exc}" if isinstance(exc, StopRequested) else "interrupted"
+    finally:
+        duration = time.monotonic() - t0
+        recorder.close()
+        codes = system.stop()
     result = EpisodeResult(0, outcome == "docked", outcome, duration, lateral, heading, None,
                            trajectory[::5] + trajectory[-1:], bearings, states)
     plots = plot([result], report, world.dock_x_m, world.dock_depth_m, world.entrance_radius_m, title="demo")
@@ -132,7 +142,7 @@ def run(args: argparse.Namespace) -> int:
         "outcome": outcome, "docked": outcome == "docked", "time_s": round(duration, 2),
         "entry_lateral_error_m": lateral, "entry_heading_error_deg": heading, "scenario": args.scenario,
         "frames_with_marker": len(bearings), "bag": str(report / "debug_bag"), "messages": recorder.counts,
-        "plots": [str(p) for p in plots], "node_exit_codes": codes,
+        "plots": [str(p) for p in plots], "node_exit_codes": codes, "ros_domain_id": domain,
         # What a shore laptop receives if it subscribes to every debug topic at the defaults.
         "debug_traffic_kbit_s": round(8 * sum(recorder.bytes.values()) / max(duration, 1e-6) / 1000, 1),
         "debug_traffic_kbit_s_by_topic": {t: round(8 * b / max(duration, 1e-6) / 1000, 2)

@@ -9,19 +9,24 @@ import time
 from collections import deque
 from typing import Any
 
-from auv_dock_guidance.cli.common import domain_id, positive_float, tcp_port
+from auv_dock_guidance.cli.common import domain_from_environment, domain_id, fail, positive_float, tcp_port
+from auv_dock_guidance.launcher import running_systems, stop_on_signals
 
 
 def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     m = subparsers.add_parser("monitor", help="live terminal dashboard of a docking run (subscribes only)",
                               description="Guidance state and the last transition, range and bearing, detection "
-                              "rate, thruster pulses, link health and diagnostics, with how stale each value is.")
+                              "rate, thruster pulses, link health and diagnostics, with how stale each value is. "
+                              "Without --domain-id: the domain of the one auv-dock run/demo/soak/bench running on "
+                              "this machine, else $ROS_DOMAIN_ID (or 0). Not on a terminal: one line per change "
+                              "of the guidance state.")
     m.add_argument("--domain-id", type=domain_id, help="ROS_DOMAIN_ID of the vehicle")
     m.add_argument("--once", type=positive_float, metavar="S", help="listen S seconds, print one snapshot, exit")
     m.set_defaults(run=run_monitor)
     f = subparsers.add_parser("foxglove", help="serve the debug topics to the Foxglove app (WebSocket)",
                               description="Forward the debug topics, as recorded CDR with their ROS 2 schemas, to "
-                              "Foxglove over its WebSocket protocol. Open the layout config/foxglove_layout.json.")
+                              "Foxglove over its WebSocket protocol. Open the layout config/foxglove_layout.json. "
+                              "Without --domain-id: as auv-dock monitor.")
     f.add_argument("--port", type=tcp_port, default=8765)
     f.add_argument("--host", default="127.0.0.1", help="address to listen on (0.0.0.0 for the boat's network)")
     f.add_argument("--domain-id", type=domain_id)
@@ -29,10 +34,43 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     f.set_defaults(run=run_foxglove)
 
 
+NO_PUBLISHERS_AFTER_S = 5.0  # discovery on one machine takes a second or two
+
+
+def watched_domain(requested: int | None) -> int:
+    """The domain to listen on, and a line saying which and why: the one running system found
+    on this machine (launcher.running_systems), else $ROS_DOMAIN_ID or 0."""
+    if requested is not None:
+        print(f"listening on ROS domain {requested}", flush=True)
+        return requested
+    systems = running_systems()
+    if len(systems) > 1:
+        fail("several auv-dock runs on this machine (" + ", ".join(
+            f"{s.command} pid {s.pid} on domain {s.domain_id}" for s in systems) + "); choose one with --domain-id N")
+    if systems:
+        found = systems[0]
+        print(f"listening on ROS domain {found.domain_id}: auv-dock {found.command} (pid {found.pid}) runs there",
+              flush=True)
+        return found.domain_id
+    domain = domain_from_environment()
+    print(f"no auv-dock run found on this machine; listening on ROS domain {domain} "
+          f"({'$ROS_DOMAIN_ID' if os.environ.get('ROS_DOMAIN_ID') else 'the default'}; --domain-id N to choose)",
+          flush=True)
+    return domain
+
+
+def no_publishers_note(domain: int) -> str:
+    return (f"no publishers of the debug topics on ROS domain {domain} "
+            f"(is the vehicle on this domain? choose with --domain-id N)")
+
+
 class ShoreView:
     """What the monitor knows, each value with the time it arrived."""
 
-    def __init__(self) -> None:
+    def __init__(self, domain: int = 0) -> None:
+        self.domain = domain
+        self.publishers: int | None = None  # on the watched topics; None until counted
+        self.started = time.monotonic()
         self.values: dict[str, tuple[float, Any]] = {}
         self.detections: deque[tuple[float, bool]] = deque(maxlen=600)
         self.warnings: dict[str, tuple[float, str]] = {}
@@ -62,6 +100,10 @@ class ShoreView:
         table.add_column("what")
         table.add_column("value")
         table.add_column("age", justify="right")
+        if self.publishers == 0 and time.monotonic() - self.started > NO_PUBLISHERS_AFTER_S:
+            table.add_row("[yellow]ROS domain[/]", f"[yellow]{no_publishers_note(self.domain)}[/]", "")
+        else:
+            table.add_row("ROS domain", f"{self.domain} ({self.publishers or 0} publishers)", "")
         table.add_row("guidance state", str(self.get("state") or "-"), stale("state"))
         table.add_row("last transition", str(self.get("transition") or "-"), stale("transition"))
         bearing = self.get("bearing")
@@ -81,17 +123,26 @@ class ShoreView:
         return table
 
 
-def _node(domain_id: int | None, name: str) -> Any:
+def _node(domain: int, name: str) -> Any:
+    """Our node; SIGTERM and SIGHUP end the watch as Ctrl-C does (launcher.stop_on_signals)."""
     import rclpy
+    from rclpy.signals import SignalHandlerOptions
 
-    if domain_id is not None:
-        os.environ["ROS_DOMAIN_ID"] = str(domain_id)
-    rclpy.init()
+    rclpy.init(domain_id=domain, signal_handler_options=SignalHandlerOptions.NO)
     # A watcher has nothing to say: no /rosout, no parameter services.
     return rclpy.create_node(name, enable_rosout=False, start_parameter_services=False)
 
 
+def _publishers(node: Any, topics: list[str]) -> int:
+    return sum(node.count_publishers(t) for t in topics)
+
+
 def run_monitor(args: argparse.Namespace) -> int:
+    with stop_on_signals():
+        return _monitor(args)
+
+
+def _monitor(args: argparse.Namespace) -> int:
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
     from geometry_msgs.msg import Vector3Stamped
@@ -101,8 +152,9 @@ def run_monitor(args: argparse.Namespace) -> int:
 
     from auv_dock_guidance.nodes.common import TRANSITION_QOS
 
-    view = ShoreView()
-    node = _node(args.domain_id, "auv_dock_shore_monitor")
+    domain = watched_domain(args.domain_id)
+    view = ShoreView(domain)
+    node = _node(domain, "auv_dock_shore_monitor")
     node.create_subscription(String, "guidance/state", lambda m: view.put("state", m.data), 10)
     node.create_subscription(String, "guidance/transition", lambda m: view.put("transition", m.data), TRANSITION_QOS)
     node.create_subscription(Vector3Stamped, "dock/bearing",
@@ -128,16 +180,24 @@ def run_monitor(args: argparse.Namespace) -> int:
 
     node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 10)
     console = Console()
+    topics = ["guidance/state", "dock/detected", "thrusters/command", "/diagnostics"]
     try:
         if args.once:
             end = time.monotonic() + args.once
             while time.monotonic() < end:
                 rclpy.spin_once(node, timeout_sec=0.1)
+            view.publishers = _publishers(node, topics)
             console.print(view.render())
+            if not view.values:
+                console.print(f"nothing received in {args.once:g} s: {no_publishers_note(domain)}")
+                return 1
             return 0
+        if not console.is_terminal:
+            return _log_changes(node, view, topics)
         with Live(view.render(), console=console, refresh_per_second=4) as live:
             while True:
                 rclpy.spin_once(node, timeout_sec=0.1)
+                view.publishers = _publishers(node, topics)
                 live.update(view.render())
     except KeyboardInterrupt:
         return 0
@@ -146,7 +206,34 @@ def run_monitor(args: argparse.Namespace) -> int:
         rclpy.try_shutdown()
 
 
+def _log_changes(node: Any, view: ShoreView, topics: list[str]) -> int:
+    """Not on a terminal (a log file, a pipe): one line per new guidance state or transition."""
+    import rclpy
+
+    said: dict[str, Any] = {}
+    while True:
+        rclpy.spin_once(node, timeout_sec=0.1)
+        for key in ("state", "transition"):
+            value = view.get(key)
+            if value is not None and value != said.get(key):
+                said[key] = value
+                print(f"{time.strftime('%H:%M:%S')} {'guidance state' if key == 'state' else 'transition'}: "
+                      f"{value}", flush=True)
+        present = _publishers(node, topics) > 0
+        before = said.get("present")  # None until known
+        if present != before and (present or time.monotonic() - view.started > NO_PUBLISHERS_AFTER_S):
+            note = (f"publishers on ROS domain {view.domain}" if present else no_publishers_note(view.domain)
+                    if before is None else f"the publishers on ROS domain {view.domain} are gone (the run ended?)")
+            print(f"{time.strftime('%H:%M:%S')} {note}", flush=True)
+            said["present"] = present
+
+
 def run_foxglove(args: argparse.Namespace) -> int:
+    with stop_on_signals():
+        return _foxglove(args)
+
+
+def _foxglove(args: argparse.Namespace) -> int:
     import foxglove
     import rclpy
     from rosbags.typesys import Stores, get_typestore
@@ -154,8 +241,12 @@ def run_foxglove(args: argparse.Namespace) -> int:
     from auv_dock_guidance.recording import DEBUG_TOPICS, listening_qos, message_class
 
     typestore = get_typestore(Stores.ROS2_JAZZY)
-    server = foxglove.start_server(name="auv_dock_guidance", host=args.host, port=args.port)
-    node = _node(args.domain_id, "auv_dock_foxglove_bridge")
+    domain = watched_domain(args.domain_id)
+    try:
+        server = foxglove.start_server(name="auv_dock_guidance", host=args.host, port=args.port)
+    except RuntimeError as exc:
+        fail(f"cannot serve on {args.host}:{args.port}: {exc}", code=1)
+    node = _node(domain, "auv_dock_foxglove_bridge")
     channels = []
     for topic, msgtype in DEBUG_TOPICS.items():
         definition, _ = typestore.generate_msgdef(msgtype, ros_version=2)
@@ -166,10 +257,16 @@ def run_foxglove(args: argparse.Namespace) -> int:
                                  lambda raw, ch=channel: ch.log(bytes(raw), log_time=time.time_ns()),
                                  listening_qos(topic), raw=True)
     print(f"Foxglove: open ws://{args.host}:{args.port} (layout config/foxglove_layout.json); Ctrl-C stops", flush=True)
-    end = time.monotonic() + args.seconds if args.seconds else None
+    start = time.monotonic()
+    end = start + args.seconds if args.seconds else None
+    heard = False
     try:
         while end is None or time.monotonic() < end:
             rclpy.spin_once(node, timeout_sec=0.1)
+            if not heard and time.monotonic() - start > NO_PUBLISHERS_AFTER_S:
+                heard = _publishers(node, list(DEBUG_TOPICS)) > 0
+                print("publishers found; forwarding" if heard else no_publishers_note(domain), flush=True)
+                start = math.inf if heard else time.monotonic() + 25.0  # say it again every 30 s
     except KeyboardInterrupt:
         pass
     finally:

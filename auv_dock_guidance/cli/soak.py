@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import math
 import signal
+import sys
 import tempfile
 import time
 from collections.abc import Callable
@@ -33,9 +34,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from auv_dock_guidance.cli.common import positive_float, print_json, rounded
+from auv_dock_guidance.cli.common import domain_id, positive_float, print_json, rounded
 from auv_dock_guidance.cli.progress import Progress
-from auv_dock_guidance.launcher import rss_mb
+from auv_dock_guidance.launcher import StopRequested, announce, private_domain_id, registered, rss_mb, stop_on_signals
 from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
 
 if TYPE_CHECKING:  # rclpy is imported only when a soak runs
@@ -108,6 +109,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                               description=__doc__.split("\n\n")[0])
     p.add_argument("--minutes", type=positive_float, default=5.0)
     p.add_argument("--fault-every", type=positive_float, default=25.0, metavar="S", help="seconds between faults")
+    p.add_argument("--domain-id", type=domain_id, help="ROS_DOMAIN_ID of the nodes (default: a free one from 30-200)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(run=run)
 
@@ -118,6 +120,13 @@ def _start_pose(rng: np.random.Generator, world: PoolWorld) -> VehiclePose:
 
 
 def run(args: argparse.Namespace) -> int:
+    domain = args.domain_id if args.domain_id is not None else private_domain_id()
+    with stop_on_signals(), registered(domain, "soak"):
+        announce(domain, sys.stderr if args.json else sys.stdout)
+        return _soak(args, domain)
+
+
+def _soak(args: argparse.Namespace, domain: int) -> int:
     from std_msgs.msg import Bool, String
 
     from auv_dock_guidance.sim_system import SimulatedSystem
@@ -125,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
     rng = np.random.default_rng(5)
     world = PoolWorld(reflection=True)
     logs = Path(tempfile.mkdtemp(prefix="auv-dock-soak-"))
-    system = SimulatedSystem(world, _start_pose(rng, world), logs)
+    system = SimulatedSystem(world, _start_pose(rng, world), logs, domain_id=domain)
     state = {"value": "starting"}
     frames = [0]
     transitions: list[tuple[float, str]] = []
@@ -141,7 +150,6 @@ def run(args: argparse.Namespace) -> int:
     system.node.create_subscription(String, "guidance/state", on_state, 10)
     system.node.create_subscription(String, "guidance/transition", on_transition, 10)
     system.node.create_subscription(Bool, "dock/detected", on_detected, 100)
-    system.start()
     group = system.group
     injected: list[str] = []
     not_survived: list[str] = []  # which, and when: to find it in the node logs
@@ -151,7 +159,9 @@ def run(args: argparse.Namespace) -> int:
     end = t0 + args.minutes * 60.0
     progress = Progress("soak", int(args.minutes * 60))
     rss_start = rss_end = 0.0
+    stopped_by = None
     try:
+        system.start()
         system.spin(12.0)  # start-up, discovery, first lock
         rss_start = sum(rss_mb(p.pid) for p in group.processes.values())
         next_fault = time.monotonic() + args.fault_every
@@ -171,7 +181,8 @@ def run(args: argparse.Namespace) -> int:
                     not_survived.append(f"{fault.name} #{len(injected)} at {time.monotonic() - t0:.0f} s")
                 next_fault = time.monotonic() + args.fault_every
         rss_end = sum(rss_mb(p.pid) for p in group.processes.values())
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
+        stopped_by = str(exc) if isinstance(exc, StopRequested) else "Ctrl-C"
         rss_end = sum(rss_mb(p.pid) for p in group.processes.values())
     finally:
         codes = system.stop()
@@ -190,13 +201,14 @@ def run(args: argparse.Namespace) -> int:
         "worst_reaction_ms": {k: rounded(v, 0) for k, v in worst_ms.items()},
         "faults": injected, "not_survived": not_survived,
         "late": late, "wrong_reactions": wrong, "node_exit_codes": codes, "logs": str(logs),
+        "ros_domain_id": domain, "stopped_by": stopped_by,
     }
     if args.json:
         print_json(report)
     else:
         for key, value in report.items():
             print(f"{key:18}{value}")
-    return 0 if not late and not wrong and not not_survived else 1
+    return 0 if not late and not wrong and not not_survived and stopped_by is None else 1
 
 
 def _inject(fault: Fault, system: SimulatedSystem, transitions: list[tuple[float, str]]) -> Outcome:

@@ -82,7 +82,7 @@ class CameraIngestNode(Node):
         elif source == "folder":
             folder = Path(self.values["path"])
             if not folder.is_dir():
-                raise ConfigError(f"source folder {folder} does not exist")
+                raise ConfigError(f"source folder {folder} {'is a file' if folder.exists() else 'does not exist'}")
             self._files = sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
             if not self._files:
                 raise ConfigError(f"source folder {folder} holds no images ({', '.join(sorted(IMAGE_SUFFIXES))})")
