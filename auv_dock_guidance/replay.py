@@ -13,6 +13,7 @@ are timed by the bag.
 from __future__ import annotations
 
 import math
+import sqlite3
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -21,7 +22,7 @@ from typing import Any
 
 import numpy as np
 from rosbags.highlevel import AnyReader
-from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.rosbag2 import StoragePlugin, Writer, WriterError
 from rosbags.typesys import Stores, get_typestore
 
 from auv_dock_guidance.control.cascade import Attitude, Target
@@ -29,6 +30,7 @@ from auv_dock_guidance.control.guidance import Guidance, GuidanceConfig, State
 from auv_dock_guidance.errors import CameraModelError, DockGuidanceError
 from auv_dock_guidance.geometry.camera import CameraModel
 from auv_dock_guidance.geometry.rotations import navigation_attitude
+from auv_dock_guidance.salvage import SalvagedBag
 from auv_dock_guidance.vision.detector import Detector, DetectorConfig
 from auv_dock_guidance.vision.image_input import decode_compressed, image_from_fields
 
@@ -55,10 +57,31 @@ class ReplaySummary:
     command_min_us: list[int] = field(default_factory=lambda: [65535] * 4)
     command_max_us: list[int] = field(default_factory=lambda: [0] * 4)
     seconds: float = 0.0
-    damage: str | None = None
+    damage: str | None = None  # the first problem met, with the frame it came at
+    truncated: str | None = None  # the bag was cut short: what could be recovered
+    frames_expected: int | None = None  # as the bag's index counts them (None: no index)
     skipped_topics: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)  # what was adapted (a scaled camera model...)
     output: str | None = None
+
+    @property
+    def frames_lost(self) -> int:
+        """Frames the index promised that could not be read (damage, a cut)."""
+        return max(0, self.frames_expected - self.frames) if self.frames_expected is not None else 0
+
+    @property
+    def processed(self) -> int:
+        return self.frames - self.bad_frames
+
+    def problems(self) -> list[str]:
+        """What a person must know about the data: damage, what was lost, what was refused."""
+        lines = [text for text in (self.truncated, self.damage) if text]
+        if self.frames_lost:
+            lines.append(f"{self.frames_lost} of {self.frames_expected} frames could not be read "
+                         f"(the bag is damaged or cut after frame {self.frames})")
+        if self.bad_frames:
+            lines.append(f"{self.bad_frames} of {self.frames} frames read were rejected")
+        return lines
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -66,11 +89,15 @@ class ReplaySummary:
             "detections": self.detections,
             "detection_rate": self.detections / self.frames if self.frames else 0.0,
             "bad_frames": self.bad_frames,
+            "frames_expected": self.frames_expected,
+            "frames_lost": self.frames_lost,
             "fps": self.frames / self.seconds if self.seconds > 0 else None,
             "transitions": self.transitions,
             "command_range_us": [[lo, hi] for lo, hi in zip(self.command_min_us, self.command_max_us, strict=True)]
-            if self.frames else None,
+            if self.processed else None,
             "damage": self.damage,
+            "truncated": self.truncated,
+            "problems": self.problems(),
             "skipped_topics": self.skipped_topics,
             "notes": self.notes,
             "output": self.output,
@@ -148,11 +175,7 @@ def replay(
         raise BagError(f"{output} exists; replay never writes over a bag")
     camera = CameraModel.from_yaml(camera_file) if camera_file else None
     summary = ReplaySummary(output=str(output) if output else None)
-    try:
-        reader = AnyReader([bag])
-        reader.open()
-    except Exception as exc:  # rosbags raises many kinds for unreadable files
-        raise BagError(f"{bag}: cannot open as a ROS bag (ROS 2 folder, .mcap or .db3; ROS 1 .bag): {exc}") from exc
+    reader, summary.truncated = _open_bag(bag)
     writer = None
     try:
         picked = _pick_image_topic(reader, image_topic)
@@ -163,22 +186,23 @@ def replay(
             raise BagError("the bag has no sensor_msgs/CameraInfo; give the camera with --camera-info")
         info_ids, imu_ids = {c.id for c in info_conns}, {c.id for c in imu_conns}
         needed = image_ids | info_ids | imu_ids
+        if camera is None:
+            camera = _first_camera(reader, info_conns)
+        _check_frame_size(reader, image_ids, camera, str(camera_file) if camera_file else "the bag's camera_info")
         typestore = get_typestore(Stores.ROS2_JAZZY)
         copies: dict[int, Any] = {}
         if output is not None:
-            writer = Writer(output, version=9, storage_plugin=StoragePlugin.MCAP)
-            writer.open()
+            writer = _new_bag(output)
             outputs = {t: writer.add_connection(t, m, typestore=typestore) for t, m in OUTPUT_TOPICS.items()}
             if copy_inputs:
                 copies = _input_copies(reader, writer, typestore, summary)
-        if camera is None:
-            camera = _first_camera(reader, info_conns)
         calibrated = camera  # the detector's model may be scaled to the frames
         detector = Detector(camera, detector_config)
         guidance = Guidance(guidance_config)
         attitude: Attitude | None = None
         messages = reader.messages(connections=[c for c in reader.connections if c.id in needed or c.id in copies])
         total = sum(c.msgcount for c in reader.connections if c.id in image_ids)
+        summary.frames_expected = None if summary.truncated else total
         start = time.perf_counter()
         while True:
             try:
@@ -218,10 +242,7 @@ def replay(
             if progress is not None:
                 progress(summary.frames, total)
             try:
-                frame = (decode_compressed(msg.data, connection.topic)
-                         if connection.msgtype.endswith("CompressedImage")
-                         else image_from_fields(msg.height, msg.width, msg.encoding, msg.step, msg.data,
-                                                bool(msg.is_bigendian)))
+                frame = _decode(msg, connection)
                 if detector.camera is None:
                     raise DockGuidanceError("no camera_info before the first frame")
                 note = detector.fit_camera(frame.shape[1], frame.shape[0])
@@ -259,6 +280,80 @@ def replay(
             writer.close()
         reader.close()
     return summary
+
+
+def _open_bag(bag: Path) -> tuple[Any, str | None]:
+    """rosbags' reader; for a bag it cannot open (cut short: no footer, no metadata.yaml) what can
+    be salvaged from its data file, with an account of what was lost."""
+    try:
+        reader = AnyReader([bag])
+        reader.open()
+        return reader, None
+    except Exception as exc:  # rosbags raises many kinds for unreadable files
+        problem = exc
+    data = _data_file(bag)
+    if data is not None and data != bag:  # a bag folder whose metadata.yaml is missing or wrong
+        try:
+            reader = AnyReader([data])
+            reader.open()
+            return reader, None
+        except Exception:
+            pass
+    if data is not None:
+        try:
+            salvaged = SalvagedBag(data)
+        except (OSError, ValueError, sqlite3.Error):
+            salvaged = None
+        if salvaged is not None:
+            if any(c.msgcount for c in salvaged.connections):
+                return salvaged, salvaged.account
+            salvaged.close()
+    raise BagError(f"{bag}: cannot open as a ROS bag (ROS 2 folder, .mcap or .db3; ROS 1 .bag): {problem}")
+
+
+def _data_file(bag: Path) -> Path | None:
+    """The one .mcap or .db3 file of a bag (the file itself, or alone in the bag's folder)."""
+    if bag.is_file():
+        return bag if bag.suffix in (".mcap", ".db3") else None
+    files = [p for p in bag.iterdir() if p.suffix in (".mcap", ".db3")] if bag.is_dir() else []
+    return files[0] if len(files) == 1 else None
+
+
+def _new_bag(output: Path) -> Writer:
+    """An open writer for the output bag, or a BagError that names it."""
+    writer = Writer(output, version=9, storage_plugin=StoragePlugin.MCAP)
+    try:
+        writer.open()
+    except (OSError, WriterError) as exc:
+        raise BagError(f"cannot create the output bag {output}: {getattr(exc, 'strerror', None) or exc}") from exc
+    return writer
+
+
+def _check_frame_size(reader: Any, image_ids: set[int], camera: CameraModel, source: str) -> None:
+    """Refuse before any work a camera model the bag's frames cannot come from (another resolution,
+    not a uniform resize): every frame would be rejected. Frames that cannot be decoded are left to the
+    replay, which counts them."""
+    for checked, (connection, _, raw) in enumerate(reader.messages(connections=[
+            c for c in reader.connections if c.id in image_ids])):
+        if checked == 5:
+            return
+        try:
+            msg: Any = reader.deserialize(raw, connection.msgtype)
+            height, width = _decode(msg, connection).shape[:2]
+        except Exception:  # undecodable or damaged: the replay counts and reports it
+            continue
+        try:
+            camera.for_image(width, height)
+        except CameraModelError as exc:
+            raise BagError(f"{source} does not fit the frames on {connection.topic}: {exc}") from exc
+        return
+
+
+def _decode(msg: Any, connection: Any) -> np.ndarray:
+    """The frame of an Image or CompressedImage message."""
+    if connection.msgtype.endswith("CompressedImage"):
+        return decode_compressed(msg.data, connection.topic)
+    return image_from_fields(msg.height, msg.width, msg.encoding, msg.step, msg.data, bool(msg.is_bigendian))
 
 
 def _first_camera(reader: AnyReader, info_conns: list) -> CameraModel:
@@ -331,6 +426,8 @@ def _outputs_by_time(bag: Path) -> dict[str, dict[int, Any]]:
         raise
     except Exception as exc:
         raise BagError(f"{bag}: cannot read ({exc})") from exc
+    if not found["/replay/dock/detected"]:
+        raise BagError(f"{bag} holds no replayed frames (its /replay/dock/detected is empty): nothing to compare")
     return found
 
 

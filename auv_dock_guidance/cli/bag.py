@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import time
 from pathlib import Path
 
@@ -65,6 +66,9 @@ def run_replay(args: argparse.Namespace) -> int:
                          copy_inputs=not args.no_inputs, progress=Progress("replay", 1))
     except DockGuidanceError as exc:
         fail(str(exc), code=1)
+    if not summary.processed and output.exists():
+        shutil.rmtree(output)  # it would hold no replay output: nothing to keep
+        summary.output = None
     report = summary.as_dict()
     if args.json:
         print_json(report)
@@ -77,10 +81,14 @@ def run_replay(args: argparse.Namespace) -> int:
             print("  thruster pulses (min-max us): " + ", ".join(f"{lo}-{hi}" for lo, hi in report["command_range_us"]))
         for note in report["notes"]:
             print(f"  note: {note}")
-        if report["damage"]:
-            print(f"  warning: {report['damage']}")
-        print(f"wrote {report['output']}")
-    return 0 if summary.frames and not summary.damage else (1 if not summary.frames else 0)
+        for problem in report["problems"]:
+            print(f"  warning: {problem}")
+        if report["output"]:
+            print(f"wrote {report['output']}")
+    if not summary.processed:
+        fail(f"{bag}: no frame could be used ({report['problems'][0] if report['problems'] else 'no frames'}); "
+             f"no output written", code=1)
+    return 0
 
 
 def run_compare(args: argparse.Namespace) -> int:

@@ -6,8 +6,9 @@ import argparse
 import time
 from pathlib import Path
 
-from auv_dock_guidance.cli.common import fail, positive_float, print_json, rate_hz, rounded
+from auv_dock_guidance.cli.common import Number, fail, print_json, rate_hz, rounded
 from auv_dock_guidance.cli.progress import Progress
+from auv_dock_guidance.launcher import stop_on_signals
 from auv_dock_guidance.sim.link_selftest import run_selftest
 from auv_dock_guidance.sim.main_controller import MainControllerSim
 
@@ -19,8 +20,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         description="Send thruster commands at 30 Hz through the real bridge and protocol to the "
         "simulated main controller, then stop and time the failsafe.",
     )
-    s.add_argument("--seconds", type=positive_float, default=3.0,
-                   help="how long to send commands (default %(default)s)")
+    s.add_argument("--seconds", type=Number(float, low=0.2, high=3600), default=3.0,
+                   help="how long to send commands, 0.2-3600 (default %(default)s): at least a few commands at 30 Hz")
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.set_defaults(run=run_selftest_command)
 
@@ -52,7 +53,13 @@ def run_selftest_command(args: argparse.Namespace) -> int:
     else:
         for key, value in data.items():
             print(f"{key:24}{value}")
-    return 0 if report.failsafe_ms is not None and report.frames_received > 0 else 1
+    failed = [text for text, bad in (
+        ("no frame came back from the simulated main controller", report.frames_received == 0),
+        ("the controller never received neutral after the last command (the bridge's failsafe)",
+         report.failsafe_ms is None)) if bad]
+    if failed:
+        fail("link self-test failed: " + "; ".join(failed), code=1)
+    return 0
 
 
 def run_mock_controller(args: argparse.Namespace) -> int:
@@ -60,7 +67,11 @@ def run_mock_controller(args: argparse.Namespace) -> int:
         controller = MainControllerSim(telemetry_hz=args.telemetry_hz, link=Path(args.port) if args.port else None)
     except FileExistsError as exc:
         fail(str(exc))
-    with controller:
+    except OSError as exc:
+        parent = Path(args.port).parent
+        fail(f"--port {args.port}: " + (f"{parent} is not a folder" if not parent.is_dir() else
+                                        f"cannot create the link to the pseudo-terminal there ({exc.strerror})"))
+    with stop_on_signals(), controller:
         print(f"main controller simulator on {controller.port} ({controller.pty_name}); Ctrl-C stops", flush=True)
         try:
             while True:

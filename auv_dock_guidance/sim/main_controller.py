@@ -140,7 +140,11 @@ class MainControllerSim:
         self.pty_name = os.ttyname(slave)
         if self._link.is_symlink():
             self._link.unlink()
-        os.symlink(self.pty_name, self._link)
+        try:
+            os.symlink(self.pty_name, self._link)
+        except OSError:  # no folder there, or not ours to write: the terminal goes with the error
+            self._pull_out()
+            raise
 
     def _pull_out(self) -> None:
         """The terminal and its link vanish: the bridge's reads and writes fail."""

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import errno
+import os
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -41,7 +44,7 @@ def read_image(path: str | Path) -> np.ndarray:
     """Read an image file for detection, with an error that names the file and the problem."""
     path = Path(path)
     if not path.is_file():
-        raise ImageInputError(f"{path}: no such file")
+        raise ImageInputError(f"{path}: {_not_a_file(path)}")
     data = np.fromfile(path, dtype=np.uint8)
     if data.size == 0:
         raise ImageInputError(f"{path}: empty file")
@@ -49,6 +52,19 @@ def read_image(path: str | Path) -> np.ndarray:
     if image is None:
         raise ImageInputError(f"{path}: not an image OpenCV can decode")
     return as_bgr_or_gray8(image, str(path))
+
+
+def _not_a_file(path: Path) -> str:
+    """Why a path is no image file, in the words a person would use."""
+    try:
+        mode = path.stat().st_mode
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            return "a symbolic link that loops back on itself"
+        if path.is_symlink():
+            return f"a symbolic link to {os.readlink(path)}, which does not exist"
+        return "no such file" if exc.errno == errno.ENOENT else exc.strerror or str(exc)
+    return "a folder, not an image file" if stat.S_ISDIR(mode) else "not a regular file"
 
 
 # OpenCV names Bayer patterns by the second row's first two pixels, ROS by the first row's

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import shutil
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +14,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from auv_dock_guidance.cli.main import main
 from auv_dock_guidance.geometry.camera import CameraModel
-from auv_dock_guidance.replay import BagError, compare, replay
+from auv_dock_guidance.replay import OUTPUT_TOPICS, BagError, compare, replay
 from auv_dock_guidance.sim.scene import SceneSpec, render
 from auv_dock_guidance.vision.detector import DetectorConfig
 
@@ -61,18 +62,93 @@ def test_existing_output_is_never_overwritten(tmp_path):
         replay(BAG, tmp_path / "taken")
 
 
-def test_truncated_bag_is_processed_up_to_the_damage(tmp_path):
-    damaged = tmp_path / "damaged"
-    shutil.copytree(BAG, damaged)
-    data_file = next(damaged.glob("*.mcap"))
-    data_file.write_bytes(data_file.read_bytes()[: data_file.stat().st_size // 2])
-    try:
-        summary = replay(damaged, None)
-    except BagError as exc:  # a reader that cannot even index it must say so clearly
-        assert "cannot open" in str(exc)
-        return
-    assert 0 < summary.frames < 30
-    assert summary.damage
+def _cut(bag: Path, folder: Path, share: float, keep_metadata: bool = True) -> tuple[Path, bytes]:
+    """A copy of the bag whose data file ends at ``share`` of its size (a power cut), and the original bytes."""
+    shutil.copytree(bag, folder)
+    data_file = next(p for p in folder.iterdir() if p.suffix in (".mcap", ".db3"))
+    original = data_file.read_bytes()
+    data_file.write_bytes(original[: int(len(original) * share)])
+    if not keep_metadata:
+        (folder / "metadata.yaml").unlink()  # rosbag2 may not have written it before the power went
+    return data_file, original
+
+
+def _frames_before(original: bytes, cut_at: int) -> int:
+    """Frames of the fixture whose bytes lie wholly before the cut (each JPEG is unique in the file)."""
+    from rosbags.highlevel import AnyReader
+
+    with AnyReader([BAG]) as reader:
+        images = [c for c in reader.connections if c.msgtype.endswith("CompressedImage")]
+        ends = [original.find(bytes(raw)) + len(raw) for _, _, raw in reader.messages(connections=images)]
+    return sum(end <= cut_at for end in ends)
+
+
+@pytest.mark.parametrize("keep_metadata", [True, False])
+def test_an_mcap_cut_short_gives_every_frame_before_the_cut(tmp_path, keep_metadata):
+    data_file, original = _cut(BAG, tmp_path / "cut", 0.5, keep_metadata)
+    summary = replay(tmp_path / "cut", tmp_path / "out")
+    intact = _frames_before(original, data_file.stat().st_size)
+    assert 10 < intact < 30 and summary.frames == intact and summary.bad_frames == 0
+    assert "cut short" in summary.truncated and f"{3 * intact} messages recovered" in summary.truncated
+    assert summary.detections >= intact - 1
+
+
+def test_a_sqlite3_bag_missing_its_last_pages_gives_what_sqlite_can_read(tmp_path):
+    from rosbags.highlevel import AnyReader
+
+    sqlite_bag = tmp_path / "sq"
+    with AnyReader([BAG]) as reader:
+        writer = Writer(sqlite_bag, version=9, storage_plugin=StoragePlugin.SQLITE3)
+        writer.open()
+        conns = {c.id: writer.add_connection(c.topic, c.msgtype, typestore=reader.typestore)
+                 for c in reader.connections}
+        for connection, timestamp, raw in reader.messages():
+            writer.write(conns[connection.id], timestamp, raw)
+        writer.close()
+    _cut(sqlite_bag, tmp_path / "cut", 0.6)
+    summary = replay(tmp_path / "cut", None)
+    assert 5 < summary.frames < 30 and summary.bad_frames == 0
+    assert "cut short" in summary.truncated and "header declares" in summary.truncated
+    assert not list(Path(tempfile.gettempdir()).glob("auv-dock-salvage-*"))  # its private copy is gone
+
+
+def test_a_bag_damaged_in_the_middle_says_how_many_frames_were_lost(tmp_path):
+    shutil.copytree(BAG, tmp_path / "damaged")
+    data_file = next((tmp_path / "damaged").glob("*.mcap"))
+    data = bytearray(data_file.read_bytes())
+    middle = len(data) // 2
+    data[middle: middle + 20_000] = bytes(20_000)
+    data_file.write_bytes(bytes(data))
+    summary = replay(tmp_path / "damaged", None)
+    assert 0 < summary.frames < 30 and summary.frames_lost == 30 - summary.frames
+    assert any(f"{summary.frames_lost} of 30 frames could not be read" in p for p in summary.problems())
+
+
+def test_a_camera_file_of_another_resolution_is_refused_before_any_output(tmp_path):
+    camera = tmp_path / "cam.yaml"
+    text = (Path(__file__).resolve().parents[2] / "config" / "camera_info.yaml").read_text()
+    camera.write_text(text.replace("image_width: 1920", "image_width: 640").replace("image_height: 1080",
+                                                                                     "image_height: 480"))
+    with pytest.raises(BagError, match=r"cam\.yaml does not fit the frames on /camera/image_raw/compressed"):
+        replay(BAG, tmp_path / "out", camera_file=camera)
+    assert not (tmp_path / "out").exists()
+
+
+def test_an_output_that_cannot_be_created_is_named(tmp_path):
+    (tmp_path / "file").write_text("a file, not a folder")
+    with pytest.raises(BagError, match="cannot create the output bag"):
+        replay(BAG, tmp_path / "file" / "out")
+
+
+def test_compare_refuses_outputs_without_frames(tmp_path):
+    writer = Writer(tmp_path / "empty", version=9, storage_plugin=StoragePlugin.MCAP)
+    writer.open()
+    ts = get_typestore(Stores.ROS2_JAZZY)
+    for topic, msgtype in OUTPUT_TOPICS.items():
+        writer.add_connection(topic, msgtype, typestore=ts)
+    writer.close()
+    with pytest.raises(BagError, match="holds no replayed frames"):
+        compare(tmp_path / "empty", tmp_path / "empty")
 
 
 def _bag_with_images(path: Path, encoding: str) -> None:
