@@ -1,6 +1,26 @@
-"""Which Fast DDS transports each node process gets from the launcher."""
+"""The launcher: which Fast DDS transports each node process gets, the registry of running
+systems, and stopping on SIGTERM and SIGHUP as on Ctrl-C."""
 
-from auv_dock_guidance.launcher import PROFILES_VARIABLE, NodeGroup, ros_environment
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from auv_dock_guidance.launcher import (
+    PROFILES_VARIABLE,
+    NodeGroup,
+    RunningSystem,
+    StopRequested,
+    private_domain_id,
+    registered,
+    ros_environment,
+    running_systems,
+    stop_on_signals,
+)
 from auv_dock_guidance.resources import config_file
 
 
@@ -18,3 +38,48 @@ def test_a_profile_the_user_chose_is_kept_for_every_process(monkeypatch, tmp_pat
     monkeypatch.setenv(PROFILES_VARIABLE, mine)
     group = NodeGroup(["guidance"], env=ros_environment())
     assert group.environment("guidance")[PROFILES_VARIABLE] == mine
+
+
+def test_a_running_system_is_listed_while_it_runs_and_not_after(monkeypatch, tmp_path):
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))
+    assert running_systems() == []
+    with registered(42, "demo"):
+        assert running_systems() == [RunningSystem(os.getpid(), 42, "demo", True)]
+        assert private_domain_id() != 42
+    assert running_systems() == [] and not list(tmp_path.glob("auv-dock-*/*"))
+
+
+def test_entries_of_ended_processes_are_dropped(monkeypatch, tmp_path):
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))
+    ended = subprocess.Popen([sys.executable, "-c", "pass"])
+    ended.wait()
+    folder = tmp_path / f"auv-dock-{os.getuid()}"
+    folder.mkdir()
+    for pid, ticks in ((ended.pid, "1"), (os.getpid(), "0")):  # gone; our pid with another start time (reused)
+        (folder / f"{pid}.json").write_text(json.dumps({"pid": pid, "start_ticks": ticks, "domain_id": 50,
+                                                        "command": "demo", "localhost_only": True}))
+    (folder / "999999.json").write_text("{half a fi")  # being written, or not ours
+    assert running_systems() == []
+    assert [p.name for p in folder.iterdir()] == ["999999.json"]
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP])
+def test_sigterm_and_sighup_end_the_work_as_ctrl_c_does(sig):
+    with pytest.raises(KeyboardInterrupt, match=sig.name) as stopped, stop_on_signals():
+        os.kill(os.getpid(), sig)
+        time.sleep(2.0)
+    assert isinstance(stopped.value, StopRequested)
+    assert signal.getsignal(sig) is signal.SIG_DFL  # the process's own handling is back
+
+
+def test_a_second_signal_does_not_cut_the_cleanup_short():
+    cleaned = False
+    with pytest.raises(KeyboardInterrupt), stop_on_signals():
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(2.0)
+        finally:
+            os.kill(os.getpid(), signal.SIGTERM)  # a supervisor's stop while the nodes are being stopped
+            time.sleep(0.2)
+            cleaned = True
+    assert cleaned
