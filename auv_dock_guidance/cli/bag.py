@@ -4,14 +4,22 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import shutil
 import time
 from pathlib import Path
 
-from auv_dock_guidance.cli.common import domain_id, fail, new_path, non_negative_int, positive_float, print_json
+from auv_dock_guidance.cli.common import (
+    domain_from_environment,
+    domain_id,
+    fail,
+    new_path,
+    non_negative_int,
+    positive_float,
+    print_json,
+)
 from auv_dock_guidance.cli.progress import Progress
 from auv_dock_guidance.errors import DockGuidanceError
+from auv_dock_guidance.launcher import stop_on_signals
 from auv_dock_guidance.replay import compare, replay
 
 
@@ -127,6 +135,7 @@ def run_make_fixture(args: argparse.Namespace) -> int:
 
 def run_record(args: argparse.Namespace) -> int:
     import rclpy
+    from rclpy.signals import SignalHandlerOptions
 
     from auv_dock_guidance.recording import DEBUG_TOPICS, BagRecorder
 
@@ -138,39 +147,46 @@ def run_record(args: argparse.Namespace) -> int:
         if unknown:
             fail(f"unknown topic(s) {', '.join(unknown)}; known: {', '.join(topics)}")
         topics = {t: m for t, m in topics.items() if t in args.topics or f"/{t.lstrip('/')}" in args.topics}
-    if args.domain_id is not None:
-        os.environ["ROS_DOMAIN_ID"] = str(args.domain_id)
-    rclpy.init()
-    node = rclpy.create_node("auv_dock_recorder")
-    try:
-        recorder = BagRecorder(node, Path(args.output), topics, args.storage)
-    except DockGuidanceError as exc:
-        node.destroy_node()
-        rclpy.try_shutdown()
-        fail(str(exc))
-    end = time.monotonic() + args.duration if args.duration else None
-    print(f"recording {len(topics)} topics into {args.output}; Ctrl-C stops", flush=True)
-    try:
-        while end is None or time.monotonic() < end:
-            rclpy.spin_once(node, timeout_sec=0.1)
-    except KeyboardInterrupt:
-        pass
-    recorder.close()
-    node.destroy_node()
-    rclpy.try_shutdown()
+    domain = args.domain_id if args.domain_id is not None else domain_from_environment()
+    with stop_on_signals():  # SIGTERM and SIGHUP end the recording as Ctrl-C does: the bag is closed whole
+        rclpy.init(domain_id=domain, signal_handler_options=SignalHandlerOptions.NO)
+        node = rclpy.create_node("auv_dock_recorder")
+        try:
+            recorder = BagRecorder(node, Path(args.output), topics, args.storage)
+        except DockGuidanceError as exc:
+            node.destroy_node()
+            rclpy.try_shutdown()
+            fail(str(exc))
+        end = time.monotonic() + args.duration if args.duration else None
+        print(f"recording {len(topics)} topics on ROS domain {domain} into {args.output}; Ctrl-C stops", flush=True)
+        try:
+            while end is None or time.monotonic() < end:
+                rclpy.spin_once(node, timeout_sec=0.1)
+        except KeyboardInterrupt:
+            pass
+        finally:
+            recorder.close()
+            node.destroy_node()
+            rclpy.try_shutdown()
     print(json.dumps({k: v for k, v in recorder.counts.items() if v}))
     return 0
 
 
 def _publish(bag: Path, realtime: bool) -> int:
-    """Republish a bag into the live graph (original timing with --realtime)."""
+    """Republish a bag into the live graph (original timing with --realtime) until it ends or a stop signal."""
+    with stop_on_signals():
+        return _republish(bag, realtime)
+
+
+def _republish(bag: Path, realtime: bool) -> int:
     import rclpy
     from rclpy.serialization import deserialize_message
+    from rclpy.signals import SignalHandlerOptions
     from rosbags.highlevel import AnyReader
 
     from auv_dock_guidance.recording import message_class
 
-    rclpy.init()
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node("auv_dock_bag_player")
     try:
         with AnyReader([bag]) as reader:
