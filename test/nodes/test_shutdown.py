@@ -7,6 +7,7 @@ import subprocess
 import sys
 import textwrap
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import cv2
@@ -74,8 +75,10 @@ def _alive(processes: dict[int, str]) -> list[int]:
     return alive
 
 
-def _stop_with(command: list[str], sig: signal.Signals, domain_id: int, nodes: int = 3) -> tuple[int, str, str]:
-    """Start an auv-dock command, wait until its nodes run, send ``sig``: no node may be left 5 s later."""
+def _stop_with(command: list[str], sig: signal.Signals, domain_id: int, nodes: int = 3,
+               working: Callable[[], bool] = lambda: True) -> tuple[int, str, str]:
+    """Start an auv-dock command, wait until its nodes run (and ``working`` holds), send ``sig``: no
+    node may be left 5 s later."""
     owner = subprocess.Popen([sys.executable, "-m", "auv_dock_guidance.cli.main", *command,
                               "--domain-id", str(domain_id)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                              text=True, start_new_session=True)
@@ -85,7 +88,9 @@ def _stop_with(command: list[str], sig: signal.Signals, domain_id: int, nodes: i
             assert owner.poll() is None, owner.communicate()
             time.sleep(0.2)
         assert len(children) == nodes, f"{command}: nodes did not start"
-        time.sleep(3.0)  # spinning, discovered, working
+        time.sleep(3.0)  # spinning, discovered
+        while not working() and time.monotonic() < deadline:
+            time.sleep(0.2)
         owner.send_signal(sig)
         sent = time.monotonic()
         out, err = owner.communicate(timeout=30)
@@ -116,7 +121,8 @@ def test_sigterm_stops_run_with_the_thrusters_neutral(marker_frames, domain_id, 
                       .replace("loop: false", "loop: true").replace("rate_hz: 30.0", "rate_hz: 10.0"))
     with MainControllerSim() as controller:
         code, out, _ = _stop_with(["run", "--config", str(config), "--source", "folder", "--path", str(marker_frames),
-                                   "--port", controller.port], signal.SIGTERM, domain_id)
+                                   "--port", controller.port], signal.SIGTERM, domain_id,
+                                  working=lambda: any(r.pwm_us != NEUTRAL for r in controller.records()))
         records = controller.records()
     assert code == 0 and "stopping (SIGTERM)" in out and f"--domain-id {domain_id}" in out.splitlines()[1]
     assert any(r.pwm_us != NEUTRAL for r in records), "guidance never drove: nothing to stop"
