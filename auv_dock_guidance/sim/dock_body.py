@@ -4,9 +4,9 @@ Real docks put their LEDs just outside the rim of a funnel. A lit white funnel i
 bright as the LEDs in a camera set for the water (it saturates in places); the vanes that
 hold the hub, and the hub itself, are dark. The funnel is a cone: the hub lies behind the
 rim plane, so a tilted dock shows it off centre. The body hides the wall behind it and is
-seen through the water like the LEDs (attenuated, veiled), so it is drawn into its own
-layer of radiance and coverage that the composition puts in place of the background.
-Everything is drawn inside the funnel's bounding box only.
+seen through the water like the LEDs (attenuated, veiled), so it is drawn as a patch of
+radiance and coverage that the composition puts in place of the background. Everything
+is drawn inside the funnel's bounding box only.
 """
 
 from __future__ import annotations
@@ -42,45 +42,62 @@ class Funnel:
     rim_brightness: float = 0.0  # a bright metal lip along the rim (0: none)
 
 
-@dataclass
-class BodyLayer:
-    """Radiance of the dock's own surfaces (one colour) and where they hide the background."""
+@dataclass(frozen=True)
+class BodyPatch:
+    """The dock's surfaces in one box of the frame: their radiance and where they hide the background."""
 
+    y0: int
+    x0: int
     radiance: np.ndarray  # (h, w) float32, full-scale units, already weighted by coverage
-    coverage: np.ndarray  # (h, w) float32 in [0, 1]
-    bgr: tuple[float, float, float]
+    coverage: np.ndarray | None  # (h, w) float32 in [0, 1]; None for a mirror image, which hides nothing
 
-    @classmethod
-    def empty(cls, height: int, width: int, bgr: tuple[float, float, float]) -> BodyLayer:
-        return cls(np.zeros((height, width), np.float32), np.zeros((height, width), np.float32), bgr)
+    @property
+    def box(self) -> tuple[slice, slice]:
+        return np.s_[self.y0:self.y0 + self.radiance.shape[0], self.x0:self.x0 + self.radiance.shape[1]]
 
 
 def draw_funnel(
     camera: CameraModel,
     funnel: Funnel,
-    layer: BodyLayer,
     center: np.ndarray,
     normal: np.ndarray,
     ring_radius_m: float,
     transmission: float,
     blur_px: float,
     occludes: bool,
-) -> None:
-    """The funnel into ``layer``; a mirror image (``occludes`` False) adds light but hides nothing."""
+) -> BodyPatch | None:
+    """The funnel as the camera sees it; a mirror image (``occludes`` False) adds light but hides nothing.
+
+    None when no part of it is in the frame, or part of it is behind the camera.
+    """
     normal = normal / np.linalg.norm(normal)
     e1, e2 = plane_basis(normal)
     rim_m = funnel.rim_share * ring_radius_m
     rim_px_est = camera.focal_px * rim_m / max(center[2], 1e-3)
     count = int(np.clip(rim_px_est * 2.0 * math.pi / 3.0, 48, 720))
-    rim, valid = camera.project(ring_points(center, normal, rim_m, count))
-    if not valid.all():
-        return  # part of the rim beyond the lens model or behind the camera: not drawn
-    h, w = layer.radiance.shape
+    hub_center = center - normal * funnel.depth_share * rim_m
+    hub_m = funnel.hub_share * rim_m
+    half = 0.5 * funnel.vane_width_share * rim_m
+    vanes = []
+    for k in range(funnel.vanes):
+        phi = funnel.vane_angle_rad + 2.0 * math.pi * k / funnel.vanes
+        along = math.cos(phi) * e1 + math.sin(phi) * e2
+        across = -math.sin(phi) * e1 + math.cos(phi) * e2
+        vanes += [hub_center + hub_m * along - 0.5 * half * across, center + rim_m * along - half * across,
+                  center + rim_m * along + half * across, hub_center + hub_m * along + 0.5 * half * across]
+    hub_count = max(24, count // 4)
+    points = np.vstack([ring_points(center, normal, rim_m, count), ring_points(hub_center, normal, hub_m, hub_count),
+                        np.reshape(vanes, (-1, 3))])
+    if np.any(points[:, 2] <= 1e-3):
+        return None
+    pix = _project_beyond_fold(camera, points)
+    rim, hub_px, vane_px = pix[:count], pix[count:count + hub_count], pix[count + hub_count:]
+    h, w = camera.height, camera.width
     margin = int(math.ceil(3.0 * blur_px)) + 3
     x0, y0 = max(0, int(rim[:, 0].min()) - margin), max(0, int(rim[:, 1].min()) - margin)
     x1, y1 = min(w, int(rim[:, 0].max()) + margin + 1), min(h, int(rim[:, 1].max()) + margin + 1)
     if x1 - x0 < 2 or y1 - y0 < 2:
-        return
+        return None
     origin = np.array([x0, y0], float)
 
     def poly(points_px: np.ndarray) -> np.ndarray:
@@ -89,23 +106,8 @@ def draw_funnel(
     inside = np.zeros((y1 - y0, x1 - x0), np.uint8)
     cv2.fillPoly(inside, [poly(rim)], 255, cv2.LINE_AA, _SHIFT)
     dark = np.zeros_like(inside)
-    hub_center = center - normal * funnel.depth_share * rim_m
-    hub_m = funnel.hub_share * rim_m
-    for k in range(funnel.vanes):
-        phi = funnel.vane_angle_rad + 2.0 * math.pi * k / funnel.vanes
-        along = math.cos(phi) * e1 + math.sin(phi) * e2
-        across = -math.sin(phi) * e1 + math.cos(phi) * e2
-        half = 0.5 * funnel.vane_width_share * rim_m
-        quad = np.array([hub_center + hub_m * along - 0.5 * half * across,
-                         center + rim_m * along - half * across,
-                         center + rim_m * along + half * across,
-                         hub_center + hub_m * along + 0.5 * half * across])
-        quad_px, ok = camera.project(quad)
-        if ok.all():
-            cv2.fillPoly(dark, [poly(quad_px)], 255, cv2.LINE_AA, _SHIFT)
-    hub_px, ok = camera.project(ring_points(hub_center, normal, hub_m, max(24, count // 4)))
-    if ok.all():
-        cv2.fillPoly(dark, [poly(hub_px)], 255, cv2.LINE_AA, _SHIFT)
+    for part in [*np.reshape(vane_px, (-1, 4, 2)), hub_px]:  # one at a time: overlaps must not cancel
+        cv2.fillPoly(dark, [poly(part)], 255, cv2.LINE_AA, _SHIFT)
     cover = inside.astype(np.float32) / 255.0
     dark_share = np.minimum(dark.astype(np.float32) / 255.0, cover)
     # Lit from one side: brightness falls linearly across the projected rim.
@@ -124,6 +126,18 @@ def draw_funnel(
     if blur_px > 0.3:
         cv2.GaussianBlur(radiance, (0, 0), blur_px, dst=radiance)
         cv2.GaussianBlur(cover, (0, 0), blur_px, dst=cover)
-    layer.radiance[y0:y1, x0:x1] += radiance * np.float32(transmission)
-    if occludes:
-        np.maximum(layer.coverage[y0:y1, x0:x1], cover, out=layer.coverage[y0:y1, x0:x1])
+    radiance *= np.float32(transmission)
+    return BodyPatch(y0, x0, radiance, cover if occludes else None)
+
+
+def _project_beyond_fold(camera: CameraModel, points: np.ndarray) -> np.ndarray:
+    """Pixels of points in front of the camera; those beyond the lens model's fold (outside the
+    frame) are put far out in their own direction, so a filled outline still covers the frame's edge."""
+    pix, valid = camera.project(points)
+    if valid.all():
+        return pix
+    xy = points[~valid, :2] / points[~valid, 2:3]
+    direction = xy / np.maximum(np.linalg.norm(xy, axis=1, keepdims=True), 1e-9)
+    far = 4.0 * max(camera.width, camera.height)
+    pix[~valid] = np.array([camera.cx, camera.cy]) + direction * far
+    return pix

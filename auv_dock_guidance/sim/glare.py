@@ -23,7 +23,7 @@ import numpy as np
 
 _BETA = 1.5  # Moffat exponent: glare wings fall as r^-3
 _COARSE = 4  # decimation of the grid the far tail is drawn on
-_FLOOR = 1.5e-3  # tail values below this (full-scale units, about 0.4 grey levels) are not drawn
+_FLOOR = 3e-3  # tail values below this (full-scale units, under a grey level) are not drawn
 
 
 class Glare:

@@ -11,9 +11,14 @@ def plane_basis(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Two unit axes spanning the plane with this normal; every circle on the dock shares them."""
     normal = normal / np.linalg.norm(normal)
     helper = np.array([0.0, 1.0, 0.0]) if abs(normal[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    e1 = np.cross(normal, helper)
+    e1 = _cross(normal, helper)
     e1 /= np.linalg.norm(e1)
-    return e1, np.cross(normal, e1)
+    return e1, _cross(normal, e1)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b for two 3-vectors (np.cross costs more than the rest of a ring for one pair)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 def ring_points(center: np.ndarray, normal: np.ndarray, radius: float, count: int) -> np.ndarray:

@@ -28,7 +28,7 @@ import numpy as np
 
 from auv_dock_guidance.geometry.camera import CameraModel
 from auv_dock_guidance.sim.background import PoolWalls, background_structure
-from auv_dock_guidance.sim.dock_body import BodyLayer, Funnel, draw_funnel
+from auv_dock_guidance.sim.dock_body import BodyPatch, Funnel, draw_funnel
 from auv_dock_guidance.sim.glare import Glare
 from auv_dock_guidance.sim.ring_geometry import mirror_in_surface, ring_points
 from auv_dock_guidance.sim.video import VideoRecording, record
@@ -124,13 +124,15 @@ def ground_truth(camera: CameraModel, spec: SceneSpec) -> GroundTruth:
         return GroundTruth(False, None, None, None, None)
     center = np.array(spec.marker_center_m, dtype=float)
     normal = np.array(spec.marker_normal, dtype=float)
-    share = float(_in_frame(camera, spec, ring_points(center, normal, spec.marker_radius_m, _VIEW_SAMPLES)).mean())
-    leds = 0
-    if spec.led_count > 0:
-        leds = int(_in_frame(camera, spec, ring_points(center, normal, spec.marker_radius_m, spec.led_count)).sum())
-    pix, valid = camera.project(center[None])
-    u, v = (float(x) for x in pix[0])
-    inside = bool(valid[0]) and share > 0.0
+    led_points = ring_points(center, normal, spec.marker_radius_m, spec.led_count) if spec.led_count > 0 \
+        else np.empty((0, 3))
+    points = np.vstack([ring_points(center, normal, spec.marker_radius_m, _VIEW_SAMPLES), led_points, center[None]])
+    pix, valid = camera.project(points)
+    seen = _in_frame(spec, camera, pix, valid)
+    share = float(seen[:_VIEW_SAMPLES].mean())
+    leds = int(seen[_VIEW_SAMPLES:-1].sum())
+    u, v = (float(x) for x in pix[-1])
+    inside = bool(valid[-1]) and share > 0.0
     reflection = None
     if spec.surface_height_m is not None:
         mirrored = mirror_in_surface(center[None], np.array(spec.surface_up), spec.surface_height_m)
@@ -148,9 +150,8 @@ def ground_truth(camera: CameraModel, spec: SceneSpec) -> GroundTruth:
     )
 
 
-def _in_frame(camera: CameraModel, spec: SceneSpec, points: np.ndarray) -> np.ndarray:
-    """Which 3-D points the camera images inside the frame (left of any blanking is outside)."""
-    pix, valid = camera.project(points)
+def _in_frame(spec: SceneSpec, camera: CameraModel, pix: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """Which projected points lie inside the frame (left of any blanking is outside)."""
     left = spec.video.letterbox_px if spec.video is not None else 0
     return valid & (pix[:, 0] >= left) & (pix[:, 0] < camera.width) & (pix[:, 1] >= 0) & (pix[:, 1] < camera.height)
 
@@ -163,7 +164,7 @@ def render(camera: CameraModel, spec: SceneSpec) -> tuple[np.ndarray, GroundTrut
     glare = None
     if spec.led_psf_tail > 0:
         glare = Glare((h, w), spec.led_psf_tail, camera.focal_px * spec.led_psf_tail_rad, 0.3 * max(h, w))
-    body = BodyLayer.empty(h, w, spec.funnel.bgr) if spec.funnel is not None else None
+    body: list[BodyPatch] = []
     if spec.marker_center_m is not None:
         center = np.array(spec.marker_center_m, dtype=float)
         normal = np.array(spec.marker_normal, dtype=float)
@@ -233,7 +234,7 @@ def _draw_ring(
     ripple: float,
     leds: np.ndarray,
     glare: Glare | None,
-    body: BodyLayer | None,
+    body: list[BodyPatch],
     occludes: bool,
 ) -> None:
     """The ring (or its reflection) into the light layer, its funnel into ``body``; ``leds`` from _led_pattern."""
@@ -256,10 +257,12 @@ def _draw_ring(
     # Thin strips are drawn as lines carrying the same light per unit length as the strip:
     # narrower than a pixel, they come out dimmer, not thinner.
     value = radiance * width_px / thickness
-    if body is not None and spec.funnel is not None:
+    if spec.funnel is not None:
         transmission = gain * math.exp(-spec.attenuation_per_m * distance)
-        draw_funnel(camera, spec.funnel, body, center, normal, spec.marker_radius_m, transmission,
-                    0.6 + 0.03 * distance, occludes)
+        patch = draw_funnel(camera, spec.funnel, center, normal, spec.marker_radius_m, transmission,
+                            0.6 + 0.03 * distance, occludes)
+        if patch is not None:
+            body.append(patch)
     if spec.funnel_glow > 0 and valid.all():
         _draw_funnel_glow(light, pix, radiance * spec.funnel_glow)
     if spec.led_count > 0:
@@ -297,9 +300,9 @@ def _add_strip(light: np.ndarray, layer: np.ndarray, ring_px: np.ndarray, value:
     strip = layer[y0:y0 + bh, x0:x0 + bw].astype(np.float32) * (value / 255.0)
     if not np.all(pattern == 1.0):
         cu, cv = ring_px.mean(axis=0)
-        ys, xs = np.mgrid[y0:y0 + bh, x0:x0 + bw]
-        angle = np.arctan2(ys - cv, xs - cu)
-        strip *= pattern[((angle + math.pi) / (2 * math.pi) * len(pattern)).astype(int) % len(pattern)]
+        ys, xs = np.nonzero(strip)  # only the strip's own pixels: the rest of its box stays dark
+        angle = np.arctan2(ys + y0 - cv, xs + x0 - cu)
+        strip[ys, xs] *= pattern[((angle + math.pi) / (2 * math.pi) * len(pattern)).astype(int) % len(pattern)]
     light[y0:y0 + bh, x0:x0 + bw] += strip
 
 
@@ -358,14 +361,15 @@ def _draw_disc(layer: np.ndarray, u: float, v: float, radius: float, value: floa
 
 def _apply_optics(camera: CameraModel, spec: SceneSpec, light: np.ndarray) -> np.ndarray:
     """Lens blur, forward-scatter halo and motion blur of the light layer (region of interest only)."""
-    ys, xs = np.nonzero(light > 1e-4)
-    if ys.size == 0:
+    box = _box(light > 1e-4)
+    if box is None:
         return light
+    top, bottom, left, right = box
     distance = float(np.linalg.norm(spec.marker_center_m)) if spec.marker_center_m else 10.0
     halo_sigma = max(2.0, camera.focal_px * spec.halo_sigma_rad * (0.5 + distance / 10.0))
     margin = int(3 * halo_sigma + spec.motion_blur_px + 8)
-    y0, y1 = max(0, ys.min() - margin), min(light.shape[0], ys.max() + margin + 1)
-    x0, x1 = max(0, xs.min() - margin), min(light.shape[1], xs.max() + margin + 1)
+    y0, y1 = max(0, top - margin), min(light.shape[0], bottom + margin + 1)
+    x0, x1 = max(0, left - margin), min(light.shape[1], right + margin + 1)
     roi = light[y0:y1, x0:x1]
     core = cv2.GaussianBlur(roi, (0, 0), 0.6 + 0.03 * distance)
     halo_share = 1.0 - math.exp(-spec.halo_fraction_per_m * distance)
@@ -409,7 +413,16 @@ def _noise_field(height: int, width: int) -> np.ndarray:
     return field
 
 
-def _compose(camera: CameraModel, spec: SceneSpec, light: np.ndarray, body: BodyLayer | None,
+def _box(mask: np.ndarray) -> tuple[int, int, int, int] | None:
+    """First and last row and column where ``mask`` holds (inclusive), or None when it holds nowhere."""
+    rows = np.flatnonzero(mask.any(axis=1))
+    if rows.size == 0:
+        return None
+    cols = np.flatnonzero(mask[rows[0]:rows[-1] + 1].any(axis=0))
+    return int(rows[0]), int(rows[-1]), int(cols[0]), int(cols[-1])
+
+
+def _compose(camera: CameraModel, spec: SceneSpec, light: np.ndarray, body: list[BodyPatch],
              rng: np.random.Generator) -> np.ndarray:
     """Water background + the dock's body + coloured light + shot and read noise, as 8-bit BGR.
 
@@ -422,46 +435,66 @@ def _compose(camera: CameraModel, spec: SceneSpec, light: np.ndarray, body: Body
     rows = np.linspace(spec.ambient_top, spec.ambient_bottom, h, dtype=np.float32) + np.float32(spec.backscatter)
     water = np.array(spec.water_bgr, np.float32) * 255.0
     led = np.array(spec.led_bgr, np.float32) * 255.0
+    veil = np.float32(spec.backscatter) * water
+    body_bgr = np.array(spec.funnel.bgr if spec.funnel is not None else (1.0, 1.0, 1.0), np.float32) * 255.0
     dy, dx = (int(v) for v in rng.integers(0, _NOISE_MARGIN, 2))
     noise = _noise_field(h, w)[dy : dy + h, dx : dx + w]
     if spec.clutter or spec.caustics or spec.vignetting or spec.walls is not None:
         structure = background_structure(h, w, spec.clutter, spec.caustics, spec.walls, rng)
         level = np.maximum(rows[:, None] + structure, 0.0)  # no negative light
         clean = level[:, :, None] * water + light[:, :, None] * led
-        if body is not None:
-            _add_body(clean, body, np.s_[0:h, 0:w], np.float32(spec.backscatter) * water, level[:, :, None] * water)
+        for patch in body:
+            _add_body(clean[patch.box], patch, veil, level[patch.box][:, :, None] * water, body_bgr)
         if spec.vignetting:
             clean *= _vignette(h, w, spec.vignetting)[:, :, None]
-        image = clean + noise * np.sqrt(np.float32(spec.read_noise**2) + np.float32(spec.shot_noise**2) * clean)
-        np.clip(image, 0, 255, out=image)
-        return image.astype(np.uint8)
+        noisy = _with_noise(clean, noise, spec)
+        np.clip(noisy, 0, 255, out=noisy)
+        return noisy.astype(np.uint8)
     background = rows[:, None] * water[None, :]  # (h, 3)
     row_sigma = np.sqrt(spec.read_noise**2 + spec.shot_noise**2 * background).astype(np.float32)
-    image = noise * row_sigma[:, None, :]
-    image += background[:, None, :]
     drawn = light[::4, ::4] > 1e-4
-    if body is not None:
-        drawn |= body.coverage[::4, ::4] > 1e-4
-        drawn |= body.radiance[::4, ::4] > 1e-4
-    ys, xs = np.nonzero(drawn)
-    if ys.size:  # add the light, and its shot noise, only where there is any
-        y0, y1 = max(0, 4 * ys.min() - 4), min(h, 4 * ys.max() + 8)
-        x0, x1 = max(0, 4 * xs.min() - 4), min(w, 4 * xs.max() + 8)
-        clean = background[y0:y1, None, :] + light[y0:y1, x0:x1, None] * led
-        if body is not None:
-            _add_body(clean, body, np.s_[y0:y1, x0:x1], np.float32(spec.backscatter) * water,
-                      background[y0:y1, None, :])
-        sigma = np.sqrt(np.float32(spec.read_noise**2) + np.float32(spec.shot_noise**2) * clean)
-        image[y0:y1, x0:x1] = clean + noise[y0:y1, x0:x1] * sigma
+    for patch in body:
+        drawn[patch.y0 // 4:-(-(patch.y0 + patch.radiance.shape[0]) // 4),
+              patch.x0 // 4:-(-(patch.x0 + patch.radiance.shape[1]) // 4)] = True
+    box = _box(drawn)
+    if box is None:
+        image = noise * row_sigma[:, None, :]
+        image += background[:, None, :]
+    else:  # the light and the dock, and their shot noise, only where there are any; rows elsewhere
+        top, bottom, left, right = box
+        y0, y1 = max(0, 4 * top - 4), min(h, 4 * bottom + 8)
+        x0, x1 = max(0, 4 * left - 4), min(w, 4 * right + 8)
+        image = np.empty((h, w, 3), np.float32)
+        for ys, xs in (np.s_[:y0, :], np.s_[y1:, :], np.s_[y0:y1, :x0], np.s_[y0:y1, x1:]):
+            np.multiply(noise[ys, xs], row_sigma[ys, None, :], out=image[ys, xs])
+            image[ys, xs] += background[ys, None, :]
+        clean = light[y0:y1, x0:x1, None] * led
+        clean += background[y0:y1, None, :]
+        for patch in body:
+            py, px = patch.box
+            inner = np.s_[py.start - y0:py.stop - y0, px.start - x0:px.stop - x0]
+            _add_body(clean[inner], patch, veil, background[py, None, :], body_bgr)
+        _with_noise(clean, noise[y0:y1, x0:x1], spec, out=image[y0:y1, x0:x1])
     np.clip(image, 0, 255, out=image)
     return image.astype(np.uint8)
 
 
-def _add_body(clean: np.ndarray, body: BodyLayer, roi: tuple[slice, slice], veil: np.ndarray,
-              background: np.ndarray) -> None:
-    """The dock's surfaces in place of the background they hide (in ``clean``, the ROI's pixels)."""
-    cover = body.coverage[roi][:, :, None]
-    clean += cover * (veil - background) + body.radiance[roi][:, :, None] * (np.array(body.bgr, np.float32) * 255.0)
+def _with_noise(clean: np.ndarray, noise: np.ndarray, spec: SceneSpec, out: np.ndarray | None = None) -> np.ndarray:
+    """clean + noise * sqrt(read^2 + shot^2 * clean), without a temporary per step."""
+    noisy = np.multiply(clean, np.float32(spec.shot_noise**2), out=out)
+    noisy += np.float32(spec.read_noise**2)
+    np.sqrt(noisy, out=noisy)
+    noisy *= noise
+    noisy += clean
+    return noisy
+
+
+def _add_body(clean: np.ndarray, patch: BodyPatch, veil: np.ndarray, background: np.ndarray,
+              bgr: np.ndarray) -> None:
+    """The dock's surfaces in place of the background they hide (``clean`` and ``background``: the patch's box)."""
+    if patch.coverage is not None:
+        clean += patch.coverage[:, :, None] * (veil - background)
+    clean += patch.radiance[:, :, None] * bgr
 
 
 @lru_cache(maxsize=4)
