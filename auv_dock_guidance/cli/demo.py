@@ -19,9 +19,9 @@ from typing import Any
 
 from auv_dock_guidance.cli.common import domain_id, fail, folder_to_write, positive_float
 from auv_dock_guidance.launcher import StopRequested, announce, private_domain_id, registered, stop_on_signals
-from auv_dock_guidance.sim.closed_loop import EpisodeResult, entry_outcome
+from auv_dock_guidance.sim.closed_loop import EpisodeResult, entry_outcome, nose_in_dock_frame
 from auv_dock_guidance.sim.monte_carlo import plot
-from auv_dock_guidance.sim.report import OverlayFrame, distance_along, write_run_pictures
+from auv_dock_guidance.sim.report import OverlayFrame, distance_to_entrance, write_run_pictures
 from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
 
 
@@ -96,7 +96,7 @@ def _demo(args: argparse.Namespace, report: Path, domain: int) -> int:
     node.create_subscription(CompressedImage, "dock/debug_image/compressed", on_overlay, 10)
     recorder = BagRecorder(node, report / "debug_bag", DEBUG_TOPICS)
     system.record_transforms(recorder)
-    trajectory: list[tuple[float, float, float, float, float]] = []  # t, nose x, y, z, yaw
+    trajectory: list[tuple[float, float, float, float, float]] = []  # t, nose in the dock frame, yaw
     outcome = "timeout"
     lateral: float | None = None  # entry errors, once the nose crosses the entrance plane
     heading: float | None = None
@@ -108,8 +108,7 @@ def _demo(args: argparse.Namespace, report: Path, domain: int) -> int:
         while (elapsed := time.monotonic() - t0) < args.timeout:
             rclpy.spin_once(node, timeout_sec=0.05)
             p = vehicle.pose
-            nose = world.camera_position(p)
-            trajectory.append((elapsed, float(nose[0]), float(nose[1]), float(nose[2]), p.yaw))
+            trajectory.append((elapsed, *nose_in_dock_frame(world, p), p.yaw))
             if elapsed - last_print >= 2.0:
                 last_print = elapsed
                 b = seen["bearing"]
@@ -134,9 +133,9 @@ def _demo(args: argparse.Namespace, report: Path, domain: int) -> int:
         codes = system.stop()
     result = EpisodeResult(0, outcome == "docked", outcome, duration, lateral, heading, None,
                            trajectory[::5] + trajectory[-1:], bearings, states)
-    plots = plot([result], report, world.dock_x_m, world.dock_depth_m, world.entrance_radius_m, title="demo")
+    plots = plot([result], report, world.entrance_radius_m, title="demo")
     plots += write_run_pictures(report, overlays, states, (bearings[0][0], bearings[-1][0]) if bearings else None,
-                                distance_along(trajectory, world.dock_x_m), lateral is not None,
+                                distance_to_entrance(trajectory), lateral is not None,
                                 title=f"demo ({args.scenario} pool): what the camera saw, with the detector's overlay")
     summary = {
         "outcome": outcome, "docked": outcome == "docked", "time_s": round(duration, 2),

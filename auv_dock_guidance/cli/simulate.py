@@ -18,6 +18,7 @@ from auv_dock_guidance.cli.common import (
 from auv_dock_guidance.cli.progress import Progress
 from auv_dock_guidance.sim.closed_loop import SCENARIOS, STEERING, EpisodeConfig
 from auv_dock_guidance.sim.monte_carlo import plot, plot_envelope, run_many, summarize
+from auv_dock_guidance.sim.report import worst_episode_pictures
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -64,7 +65,8 @@ def run(args: argparse.Namespace) -> int:
             folder = Path(args.plots) / steering if args.compare else Path(args.plots)
             title = f"{args.scenario} {steering}"
             report["plots"] = [str(p) for p in [*plot(results, folder, title=title),
-                                                plot_envelope(results, folder, title=title)]]
+                                                plot_envelope(results, folder, title=title),
+                                                *worst_episode_pictures(config, results, folder)]]
         reports[steering] = report
     if args.json:
         print_json(reports[args.steering] if not args.compare else {"comparison": reports})

@@ -15,6 +15,7 @@ fits in minutes on two cores.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -24,9 +25,10 @@ from auv_dock_guidance.control.guidance import Guidance, GuidanceConfig, State
 from auv_dock_guidance.control.mixer import Mixer
 from auv_dock_guidance.control.pid import wrap_angle
 from auv_dock_guidance.geometry.camera import CameraModel, paper_camera
-from auv_dock_guidance.sim.scene import SceneSpec, render
+from auv_dock_guidance.sim.scene import GroundTruth, SceneSpec, render
 from auv_dock_guidance.sim.vehicle import AuvDynamics
 from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
+from auv_dock_guidance.vision.detection import Detection
 from auv_dock_guidance.vision.detector import Detector, DetectorConfig
 
 SCENARIOS = ("clear", "reflection", "open-water")
@@ -95,7 +97,7 @@ class EpisodeResult:
     entry_lateral_error_m: float | None
     entry_heading_error_deg: float | None
     max_detection_range_m: float | None
-    trajectory: list[tuple[float, float, float, float, float]]  # t, x, y, z, yaw
+    trajectory: list[tuple[float, float, float, float, float]]  # t, nose_in_dock_frame (m), yaw
     bearing_errors: list[tuple[float, float, float]]  # t, yaw bearing deg, pitch bearing deg
     states: list[tuple[float, str]]
     frames: int = 0
@@ -201,7 +203,11 @@ class AcousticHoming:
         return self.mixer.mix(self.surge, max(-0.6, min(0.6, yaw)), max(-0.6, min(0.6, pitch))).pwm_us
 
 
-def run_episode(config: EpisodeConfig, seed: int) -> EpisodeResult:
+FrameHook = Callable[[float, np.ndarray, Detection, GroundTruth], None]  # t, frame, what was found, truth
+
+
+def run_episode(config: EpisodeConfig, seed: int, on_frame: FrameHook | None = None) -> EpisodeResult:
+    """One reproducible run; ``on_frame`` sees every camera frame (the report's pictures)."""
     rng = np.random.default_rng(seed)
     world = episode_world(config, rng)
     camera: CameraModel = paper_camera().scaled(config.render_scale)
@@ -229,6 +235,8 @@ def run_episode(config: EpisodeConfig, seed: int) -> EpisodeResult:
             spec = world.scene_for(vehicle.pose, seed=seed * 100000 + frame)
             image, truth = render(camera, spec)
             detection = detector.detect(image)
+            if on_frame is not None:
+                on_frame(t, image, detection, truth)
             guidance.frame_processed(t)
             pose = detection.pose
             if detection.found and pose is not None:
@@ -250,9 +258,10 @@ def run_episode(config: EpisodeConfig, seed: int) -> EpisodeResult:
         vehicle.advance(pwm, dt)
         t += dt
         p = vehicle.pose
-        if frame % 2 == 0:
-            result.trajectory.append((t, p.x, p.y, p.z, p.yaw))
-        if world.past_entrance_m(p) >= 0:
+        crossed = world.past_entrance_m(p) >= 0
+        if frame % 2 == 0 or crossed:  # the track ends on the entrance plane
+            result.trajectory.append((t, *nose_in_dock_frame(world, p), p.yaw))
+        if crossed:
             result.reason, result.entry_lateral_error_m, result.entry_heading_error_deg = entry_outcome(
                 world, p, config.vehicle_radius_m, config.max_heading_error_deg)
             result.success = result.reason == "docked"
@@ -289,6 +298,15 @@ def _describe_start(result: EpisodeResult, world: PoolWorld, vehicle: AuvDynamic
     current = np.asarray(vehicle.current_mps, dtype=float)
     result.current_mps = float(np.linalg.norm(current[:2]))
     result.cross_current_mps = float(abs(current[0] * -world.dock_axis[1] + current[1] * world.dock_axis[0]))
+
+
+def nose_in_dock_frame(world: PoolWorld, pose: VehiclePose) -> tuple[float, float, float]:
+    """The nose along the dock's axis (0 on the entrance plane, negative in front of it), left
+    of the axis and above it (m): where trajectories of any scenario are drawn."""
+    rel = world.camera_position(pose) - world.dock_center
+    axis = world.dock_axis
+    left = np.array([-axis[1], axis[0], 0.0])
+    return float(rel @ axis), float(rel @ left), float(rel[2])
 
 
 def entry_outcome(world: PoolWorld, pose: VehiclePose, vehicle_radius_m: float = 0.12,

@@ -155,10 +155,10 @@ def plot_envelope(results: list[EpisodeResult], folder: Path, title: str = "") -
     return path
 
 
-def plot(results: list[EpisodeResult], folder: Path, dock_x: float = 28.0, dock_depth: float = 2.0,
-         entrance_radius: float = 0.35, title: str = "") -> list[Path]:
-    """Top and side views of every trajectory (of the nose, up to the entrance plane), with
-    where each guidance state began when there are few, and the bearings over time, as PNG."""
+def plot(results: list[EpisodeResult], folder: Path, entrance_radius: float = 0.35, title: str = "") -> list[Path]:
+    """Top and side views of every trajectory (of the nose, in the dock's frame, up to the
+    entrance plane), with where each guidance state began when there are few, and the
+    bearings over time, as PNG."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -166,8 +166,8 @@ def plot(results: list[EpisodeResult], folder: Path, dock_x: float = 28.0, dock_
 
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
-    for view, (index, label, dock_value) in {"top": (2, "y (m, left +)", 0.0),
-                                              "side": (3, "z (m, up +)", -dock_depth)}.items():
+    for view, (index, label) in {"top": (2, "left of the dock's axis (m)"),
+                                 "side": (3, "above the dock's axis (m)")}.items():
         fig, ax = plt.subplots(figsize=(9, 3.6))
         for r in results:
             track = np.array([(p[0], p[1], p[index]) for p in r.trajectory])
@@ -175,11 +175,11 @@ def plot(results: list[EpisodeResult], folder: Path, dock_x: float = 28.0, dock_
                 ax.plot(track[:, 1], track[:, 2], color="tab:green" if r.success else "tab:red", lw=0.8, alpha=0.7)
                 if len(results) <= STATE_MARKS_UP_TO:
                     _mark_states(ax, track, r.states)
-        ax.axvline(dock_x, color="0.6", lw=0.8, ls="--", label="entrance plane")
-        ax.plot([dock_x, dock_x], [dock_value - entrance_radius, dock_value + entrance_radius], color="k", lw=3)
+        ax.axvline(0.0, color="0.6", lw=0.8, ls="--", label="entrance plane")
+        ax.plot([0.0, 0.0], [-entrance_radius, entrance_radius], color="k", lw=3)
         if len(results) <= STATE_MARKS_UP_TO:
             ax.legend(fontsize=7, loc="best")
-        ax.set_xlabel("x along the pool (m)")
+        ax.set_xlabel("along the dock's axis (m, 0 = entrance plane)")
         ax.set_ylabel(label)
         ax.set_title(f"{title} {view} view: green docked, red failed".strip())
         ax.grid(alpha=0.3)

@@ -12,12 +12,19 @@ may lack).
 from __future__ import annotations
 
 import bisect
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
 import numpy as np
+
+from auv_dock_guidance.geometry.camera import paper_camera
+from auv_dock_guidance.sim.closed_loop import EpisodeConfig, EpisodeResult, run_episode
+from auv_dock_guidance.sim.scene import GroundTruth
+from auv_dock_guidance.vision.detection import Detection
+from auv_dock_guidance.vision.overlay import overlay_jpeg, overlay_text
 
 FIRST_DETECTION, TRACKING, TERMINAL, LAST_SIGHTING, LAST = (
     "first detection", "tracking", "terminal phase", "last sighting", "last frame before the entrance")
@@ -120,16 +127,22 @@ def write_strip(moments: list[Moment], path: Path, caption: Callable[[Moment], s
 
 
 def write_animation(frames: list[OverlayFrame], path: Path, label: Callable[[OverlayFrame], str],
-                    fps: float = 6.0, max_frames: int = 240, width_px: int = 480) -> Path:
-    """The approach as an animated GIF (Pillow), each frame with its label burnt in; at most
-    ``max_frames`` frames, evenly taken, scaled to ``width_px``."""
+                    fps: float = 6.0, every_s: float = 0.5, width_px: int = 480) -> Path:
+    """The approach as an animated GIF (Pillow): a frame every ``every_s`` of the run (the
+    debug image's rate, and three times real speed at 6 fps), each with its label burnt in,
+    scaled to ``width_px``; the last frame always, held for 2 s."""
     from PIL import Image
 
     if not frames:
         raise ValueError("no overlay frames for the animation")
-    step = max(1, -(-len(frames) // max_frames))
+    chosen = [frames[0]]
+    for frame in frames[1:]:
+        if frame.t_s >= chosen[-1].t_s + 0.8 * every_s:  # frames a little early still count
+            chosen.append(frame)
+    if chosen[-1] is not frames[-1]:
+        chosen.append(frames[-1])
     pictures = []
-    for frame in frames[::step] + ([frames[-1]] if (len(frames) - 1) % step else []):
+    for frame in chosen:
         image = frame.image_rgb()
         if image is None:
             continue
@@ -149,9 +162,9 @@ def write_animation(frames: list[OverlayFrame], path: Path, label: Callable[[Ove
 
 def write_run_pictures(folder: Path, frames: list[OverlayFrame], states: list[tuple[float, str]],
                        detections_s: tuple[float, float] | None, to_entrance_m: Callable[[float], float],
-                       reached_entrance: bool, title: str = "") -> list[Path]:
+                       reached_entrance: bool, title: str = "", prefix: str = "") -> list[Path]:
     """The strip of key moments (``camera_strip.png``) and the approach (``approach.gif``) of one
-    run; nothing when no overlay frame was seen."""
+    run, their names after ``prefix``; nothing when no overlay frame was seen."""
     if not frames:
         return []
     moments = key_moments(frames, detections_s, states, LAST if reached_entrance else "last frame")
@@ -164,13 +177,59 @@ def write_run_pictures(folder: Path, frames: list[OverlayFrame], states: list[tu
         t = frame.t_s
         return f"t {t:5.1f} s  {state_at(states, t) or 'starting':<9} {to_entrance_m(t):5.1f} m to the entrance"
 
-    return [write_strip(moments, folder / "camera_strip.png", caption, title),
-            write_animation(frames, folder / "approach.gif", label)]
+    return [write_strip(moments, folder / f"{prefix}camera_strip.png", caption, title),
+            write_animation(frames, folder / f"{prefix}approach.gif", label)]
 
 
-def distance_along(trajectory: Sequence[tuple[float, float, float, float, float]],
-                   entrance_x_m: float) -> Callable[[float], float]:
-    """Distance of the nose to the entrance plane at a time, from (t, nose x, y, z, yaw) samples."""
+def distance_to_entrance(trajectory: Sequence[tuple[float, float, float, float, float]]) -> Callable[[float], float]:
+    """Distance of the nose to the entrance plane at a time, from (t, along the dock's axis, ...) samples."""
     times = np.array([p[0] for p in trajectory])
     along = np.array([p[1] for p in trajectory])
-    return lambda t_s: float(entrance_x_m - np.interp(t_s, times, along)) if len(times) else float("nan")
+    return lambda t_s: float(-np.interp(t_s, times, along)) if len(times) else math.nan
+
+
+def worst_episode_pictures(config: EpisodeConfig, results: list[EpisodeResult], folder: Path) -> list[Path]:
+    """``episode_pictures`` of the worst episode (none without episodes)."""
+    worst = worst_episode(results)
+    return episode_pictures(config, worst, folder) if worst is not None else []
+
+
+def worst_episode(results: list[EpisodeResult]) -> EpisodeResult | None:
+    """The run a person should look at: the first failure, else the widest entry."""
+    if not results:
+        return None
+    failed = [r for r in results if not r.success]
+    if failed:
+        return min(failed, key=lambda r: r.seed)
+    return max(results, key=lambda r: r.entry_lateral_error_m or 0.0)
+
+
+def episode_pictures(config: EpisodeConfig, result: EpisodeResult, folder: Path) -> list[Path]:
+    """The strip and the animation of one simulated episode, run again from its seed (each
+    episode is reproducible) with the detector's overlay kept for every frame."""
+    frames: list[OverlayFrame] = []
+    ranges: list[tuple[float, float]] = []  # t, true distance to the dock ahead of the camera
+
+    camera = paper_camera().scaled(config.render_scale)  # the episode's camera
+    principal = (camera.cx, camera.cy)
+
+    def keep(t_s: float, image: np.ndarray, detection: Detection, truth: GroundTruth) -> None:
+        frames.append(OverlayFrame(t_s, overlay_jpeg(image, detection, principal, overlay_text(detection),
+                                                     scale=0.5, quality=80)))
+        if truth.position_m is not None:
+            ranges.append((t_s, truth.position_m[2]))
+
+    again = run_episode(config, result.seed, on_frame=keep)
+    detections = [t for t, _, _ in again.bearing_errors]
+    times = np.array([t for t, _ in ranges])
+    distances = np.array([d for _, d in ranges])
+
+    def to_dock(t_s: float) -> float:
+        return float(np.interp(t_s, times, distances)) if len(times) else math.nan
+
+    title = (f"worst of the episodes: seed {result.seed}, {again.reason}"
+             + (f", entry {100 * again.entry_lateral_error_m:.1f} cm off centre"
+                if again.entry_lateral_error_m is not None else ""))
+    return write_run_pictures(folder, frames, [(0.0, "SEARCH"), *again.states],
+                              (detections[0], detections[-1]) if detections else None, to_dock,
+                              again.entry_lateral_error_m is not None, title, prefix=f"worst_seed{result.seed}_")
