@@ -135,7 +135,7 @@ def dock_markers(pose: DockPose, marker_radius_m: float, header: Header, lifetim
     """The ring (a line strip of its true radius) and the dock axis (an arrow out of the
     entrance), both placed at the dock's pose; green where the axis was measured, amber
     where the ring was only seen face-on (its orientation then is the line of sight)."""
-    angles = np.linspace(0.0, 2.0 * math.pi, 49)
+    angles = np.linspace(0.0, 2.0 * math.pi, 33)  # 32 segments: round on screen, 0.8 kB
     ring = _marker(pose, header, RING_MARKER_ID, Marker.LINE_STRIP, lifetime_s)
     ring.points = [Point(x=0.0, y=float(marker_radius_m * math.cos(a)), z=float(marker_radius_m * math.sin(a)))
                    for a in angles]  # the ring lies in the dock frame's y-z plane

@@ -64,6 +64,7 @@ PARAMS = [
     Param("debug_image_rate_hz", 2.0, "debug overlay rate (0 = off)", 0.0, 30.0),
     Param("debug_image_scale", 0.25, "debug overlay size relative to the frame", 0.05, 1.0),
     Param("debug_jpeg_quality", 60, "debug overlay JPEG quality", 10, 100),
+    Param("dock_marker_rate_hz", 2.0, "dock/marker rate: a 3D panel needs no more (0 = off)", 0.0, 30.0),
     Param("threshold.reference_radius_px", 80.0, "apparent ring radius at an intermediate range (px)", 5.0, 1000.0),
     Param("threshold.fraction_at_reference", 0.4, "threshold share of (peak - background) there", 0.05, 0.95),
     Param("threshold.fraction_far", 0.2, "lowest share (faint, far light)", 0.01, 0.95),
@@ -112,6 +113,7 @@ class DetectorNode(Node):
         self.problems = InputProblems(self)
         self._frame_order = StampGate()
         self._last_debug = 0.0
+        self._last_marker = 0.0
         self._found = False
         self._warned_no_camera = False
 
@@ -203,8 +205,12 @@ class DetectorNode(Node):
             self.problems.report("dock_pose", str(exc))
             return
         self.pose_pub.publish(dock_pose_to_msg(pose, header))
-        for marker in dock_markers(pose, radius, header):
-            self.marker_pub.publish(marker)
+        rate = self.values["dock_marker_rate_hz"]
+        now = time.monotonic()
+        if rate > 0 and now - self._last_marker >= 1.0 / rate:
+            self._last_marker = now
+            for marker in dock_markers(pose, radius, header):
+                self.marker_pub.publish(marker)
 
     def _maybe_publish_debug(self, msg: Image, frame: Any, detection: Any) -> None:
         rate = self.values["debug_image_rate_hz"]

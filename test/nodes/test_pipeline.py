@@ -116,7 +116,8 @@ def test_dock_pose_and_marker_follow_the_dock(far_near_gone, domain_id, tmp_path
     dock is, and is cleared when the dock leaves the view."""
     group = NodeGroup(
         ["vision_pipeline"],
-        overrides={"camera_ingest": {"source": "folder", "path": str(far_near_gone), "loop": True, "rate_hz": 10.0}},
+        overrides={"camera_ingest": {"source": "folder", "path": str(far_near_gone), "loop": True, "rate_hz": 10.0},
+                   "detector": {"dock_marker_rate_hz": 30.0}},  # a marker for every frame
         env=ros_environment(domain_id=domain_id), log_dir=tmp_path / "logs",
     )
     rclpy.init(domain_id=domain_id)
