@@ -70,10 +70,25 @@ class ShoreView:
     def __init__(self, domain: int = 0) -> None:
         self.domain = domain
         self.publishers: int | None = None  # on the watched topics; None until counted
+        self.ever_published = False
         self.started = time.monotonic()
         self.values: dict[str, tuple[float, Any]] = {}
         self.detections: deque[tuple[float, bool]] = deque(maxlen=600)
         self.warnings: dict[str, tuple[float, str]] = {}
+
+    def count_publishers(self, count: int) -> None:
+        self.publishers = count
+        self.ever_published = self.ever_published or count > 0
+
+    def domain_note(self) -> str | None:
+        """What a person must know about the domain: none publishes there (yet, or any more); None if fine."""
+        if self.publishers:
+            return None
+        if self.ever_published:
+            return f"the publishers on ROS domain {self.domain} are gone (the run ended?)"
+        if time.monotonic() - self.started > NO_PUBLISHERS_AFTER_S:
+            return no_publishers_note(self.domain)
+        return None
 
     def put(self, key: str, value: Any) -> None:
         self.values[key] = (time.monotonic(), value)
@@ -100,8 +115,9 @@ class ShoreView:
         table.add_column("what")
         table.add_column("value")
         table.add_column("age", justify="right")
-        if self.publishers == 0 and time.monotonic() - self.started > NO_PUBLISHERS_AFTER_S:
-            table.add_row("[yellow]ROS domain[/]", f"[yellow]{no_publishers_note(self.domain)}[/]", "")
+        note = self.domain_note()
+        if note is not None:
+            table.add_row("[yellow]ROS domain[/]", f"[yellow]{note}[/]", "")
         else:
             table.add_row("ROS domain", f"{self.domain} ({self.publishers or 0} publishers)", "")
         table.add_row("guidance state", str(self.get("state") or "-"), stale("state"))
@@ -186,7 +202,7 @@ def _monitor(args: argparse.Namespace) -> int:
             end = time.monotonic() + args.once
             while time.monotonic() < end:
                 rclpy.spin_once(node, timeout_sec=0.1)
-            view.publishers = _publishers(node, topics)
+            view.count_publishers(_publishers(node, topics))
             console.print(view.render())
             if not view.values:
                 console.print(f"nothing received in {args.once:g} s: {no_publishers_note(domain)}")
@@ -197,7 +213,7 @@ def _monitor(args: argparse.Namespace) -> int:
         with Live(view.render(), console=console, refresh_per_second=4) as live:
             while True:
                 rclpy.spin_once(node, timeout_sec=0.1)
-                view.publishers = _publishers(node, topics)
+                view.count_publishers(_publishers(node, topics))
                 live.update(view.render())
     except KeyboardInterrupt:
         return 0
@@ -219,13 +235,11 @@ def _log_changes(node: Any, view: ShoreView, topics: list[str]) -> int:
                 said[key] = value
                 print(f"{time.strftime('%H:%M:%S')} {'guidance state' if key == 'state' else 'transition'}: "
                       f"{value}", flush=True)
-        present = _publishers(node, topics) > 0
-        before = said.get("present")  # None until known
-        if present != before and (present or time.monotonic() - view.started > NO_PUBLISHERS_AFTER_S):
-            note = (f"publishers on ROS domain {view.domain}" if present else no_publishers_note(view.domain)
-                    if before is None else f"the publishers on ROS domain {view.domain} are gone (the run ended?)")
-            print(f"{time.strftime('%H:%M:%S')} {note}", flush=True)
-            said["present"] = present
+        view.count_publishers(_publishers(node, topics))
+        note = view.domain_note()
+        if note != said.get("note", "") and (note is not None or view.publishers):
+            print(f"{time.strftime('%H:%M:%S')} {note or f'publishers on ROS domain {view.domain}'}", flush=True)
+            said["note"] = note
 
 
 def run_foxglove(args: argparse.Namespace) -> int:
