@@ -126,13 +126,13 @@ def _recorded(rng: np.random.Generator, spec: SceneSpec) -> SceneSpec:
     walls = None
     if rng.uniform() < 0.85:
         walls = PoolWalls(
-            tile_contrast=sometimes(0.7, 0.02, 0.12),
+            tile_contrast=sometimes(0.7, 0.03, 0.2),
             tile_share=rng.uniform(0.1, 0.35),
-            stain_contrast=sometimes(0.8, 0.02, 0.1),
+            stain_contrast=sometimes(0.8, 0.02, 0.15),
             fixtures=int(rng.integers(0, 3)),
             fixture_contrast=rng.uniform(0.03, 0.15),
             cables=int(rng.integers(0, 4)),
-            haze=rng.uniform(0.0, 0.7),
+            haze=rng.uniform(0.0, 0.6),
         )
     video = VideoRecording(
         chroma_blur_px=rng.uniform(1.0, 3.0),
@@ -145,9 +145,10 @@ def _recorded(rng: np.random.Generator, spec: SceneSpec) -> SceneSpec:
         spec,
         attenuation_per_m=attenuation,
         halo_fraction_per_m=rng.uniform(0.1, 0.6) * attenuation * 0.6,
-        backscatter=rng.uniform(0.05, 0.4),
-        ambient_top=rng.uniform(0.05, 0.3),
-        ambient_bottom=rng.uniform(0.02, 0.15),
+        # A camera exposing for the scene: the water mid-grey or brighter, rarely dark.
+        backscatter=rng.uniform(0.1, 0.45),
+        ambient_top=rng.uniform(0.1, 0.4),
+        ambient_bottom=rng.uniform(0.05, 0.25),
         motion_blur_px=sometimes(0.3, 1.0, 8.0),
         motion_blur_angle_rad=rng.uniform(0, math.pi),
         dead_share=sometimes(0.1, 0.05, 0.15),
