@@ -15,8 +15,10 @@ beyond the fold have no valid undistortion and are flagged instead of returning 
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, replace
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +26,8 @@ import numpy as np
 import yaml
 
 from auv_dock_guidance.errors import CameraModelError
+
+log = logging.getLogger(__name__)
 
 _FOLD_SEARCH_MAX = 4.0  # normalized radius up to which a fold of the radial model is looked for
 _ROUND_TRIP_TOL_PX = 0.05
@@ -70,8 +74,14 @@ class CameraModel:
         distortion_model: str = "plumb_bob",
         name: str = "camera",
         frame_id: str = "camera_optical_frame",
+        source: str = "camera_info",
     ) -> CameraModel:
-        """Build from the fields of a sensor_msgs/CameraInfo (k: 9 values row-major, d: 0-5)."""
+        """Build from the fields of a sensor_msgs/CameraInfo (k: 9 values row-major, d: 0-5).
+
+        Refused (CameraModelError) where the lens model has no valid undistortion over most of
+        the image; other implausible values (see ``plausibility_warnings``) are logged once,
+        naming ``source``.
+        """
         k_values = np.asarray(k, dtype=float).ravel()
         if k_values.size != 9:
             raise CameraModelError(f"camera matrix has {k_values.size} values, expected 9")
@@ -85,7 +95,7 @@ class CameraModel:
         if len(d_values) not in (0, 4, 5, 8):
             raise CameraModelError(f"distortion has {len(d_values)} values, expected 0, 4 or 5")
         d_values = (d_values + [0.0] * 5)[:5]
-        return cls(
+        model = cls(
             width=int(width),
             height=int(height),
             fx=float(k_values[0]),
@@ -100,6 +110,11 @@ class CameraModel:
             name=name,
             frame_id=frame_id,
         )
+        refusal, warnings = _plausibility(model)
+        if refusal:
+            raise CameraModelError(refusal)
+        _log_once(model, source, warnings)
+        return model
 
     @classmethod
     def from_yaml(cls, path: str | Path) -> CameraModel:
@@ -121,6 +136,7 @@ class CameraModel:
                 d=_matrix_data(data, "distortion_coefficients", path),
                 distortion_model=str(data.get("distortion_model", "plumb_bob")),
                 name=str(data.get("camera_name", "camera")),
+                source=str(path),
             )
         except CameraModelError as exc:
             if str(exc).startswith(str(path)):
@@ -287,6 +303,72 @@ def _radial_fold(k1: float, k2: float, k3: float) -> float | None:
         if abs(r.imag) < 1e-12 and r.real > 0 and math.sqrt(r.real) < _FOLD_SEARCH_MAX
     ]
     return min(positive) if positive else None
+
+
+# A lens model must undistort most of its image: the paper's Table 2 lens folds over in the
+# image corners (9 % of the image), which is what extrapolating the polynomial past the
+# calibrated boards gives; beyond a quarter something is wrong, beyond half nothing usable is left.
+_WARN_UNUSABLE_SHARE = 0.25
+_REFUSE_UNUSABLE_SHARE = 0.5
+# Distortion that scales the radius of an image point by more than 2 or less than 0.5 is
+# beyond what a lens the plumb_bob model suits can do (a 120 deg wide-angle stays within this).
+_PLAUSIBLE_RADIAL_SCALE = (0.5, 2.0)
+_CHECK_GRID = 33  # points per image side at which the lens model is checked
+
+
+def plausibility_warnings(camera: CameraModel) -> list[str]:
+    """What is implausible about this calibration, each naming the value and the limit.
+
+    Raises CameraModelError where the lens model has no valid undistortion over most of the
+    image (it folds over, or its inverse does not converge): no use of it could be right.
+    """
+    refusal, warnings = _plausibility(camera)
+    if refusal:
+        raise CameraModelError(refusal)
+    return list(warnings)
+
+
+@lru_cache(maxsize=16)  # camera_info arrives with every frame: check each distinct model once
+def _plausibility(camera: CameraModel) -> tuple[str | None, tuple[str, ...]]:
+    warnings = []
+    for axis, value, size in (("cx", camera.cx, camera.width), ("cy", camera.cy, camera.height)):
+        if not -0.5 <= value <= size - 0.5:
+            warnings.append(f"principal point {axis} {value:g} px lies outside the image (0-{size - 1} px)")
+    distortion = "distortion " + ", ".join(
+        f"{name} {value:g}" for name, value in zip(("k1", "k2", "p1", "p2", "k3"), camera.distortion, strict=True)
+    )
+    side = np.linspace(0.0, 1.0, _CHECK_GRID)
+    grid = np.stack(np.meshgrid(side * (camera.width - 1), side * (camera.height - 1)), axis=-1).reshape(-1, 2)
+    xy, valid = camera.pixels_to_normalized(grid)
+    unusable = 1.0 - float(np.mean(valid))
+    if unusable > _REFUSE_UNUSABLE_SHARE:
+        where = "the whole image" if unusable == 1.0 else f"{100 * unusable:.0f} % of the image"
+        reason = f"{distortion} has no valid undistortion over {where} (the lens model folds over)"
+        return "; ".join([*warnings, reason]), ()
+    if unusable > _WARN_UNUSABLE_SHARE:
+        warnings.append(f"{distortion} has no valid undistortion over {100 * unusable:.0f} % of the image "
+                        f"(more than {100 * _WARN_UNUSABLE_SHARE:.0f} %)")
+    ideal_radius = np.hypot(xy[valid, 0], xy[valid, 1])
+    distorted_radius = np.hypot(*(camera.distort_normalized(xy[valid]).T))
+    away = ideal_radius > 1e-3
+    if np.any(away):
+        scale = distorted_radius[away] / ideal_radius[away]
+        low, high = _PLAUSIBLE_RADIAL_SCALE
+        extreme = float(scale[np.argmax(np.abs(np.log(np.maximum(scale, 1e-12))))])
+        if not low <= extreme <= high:
+            warnings.append(f"{distortion} scales image radii by {extreme:.3g} "
+                            f"(a real lens stays within {low:g}-{high:g})")
+    return None, tuple(warnings)
+
+
+_logged: set[tuple[CameraModel, str]] = set()
+
+
+def _log_once(camera: CameraModel, source: str, warnings: tuple[str, ...]) -> None:
+    if warnings and (camera, source) not in _logged:
+        _logged.add((camera, source))
+        for warning in warnings:
+            log.warning("%s: implausible calibration: %s", source, warning)
 
 
 def _require_int(data: dict[str, Any], key: str, path: Path) -> int:

@@ -1,3 +1,4 @@
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -5,7 +6,7 @@ import pytest
 import yaml
 
 from auv_dock_guidance.errors import CameraModelError
-from auv_dock_guidance.geometry.camera import PAPER_FOCAL_PX, CameraModel, paper_camera
+from auv_dock_guidance.geometry.camera import PAPER_FOCAL_PX, CameraModel, paper_camera, plausibility_warnings
 
 CONFIG = Path(__file__).resolve().parents[2] / "config" / "camera_info.yaml"
 
@@ -113,3 +114,55 @@ def test_malformed_camera_info_is_named_in_the_error(tmp_path, text, message):
 def test_missing_camera_info_file(tmp_path):
     with pytest.raises(CameraModelError, match="cannot read"):
         CameraModel.from_yaml(tmp_path / "nope.yaml")
+
+
+def _camera_info_file(tmp_path, camera: CameraModel) -> Path:
+    path = tmp_path / "implausible.yaml"
+    path.write_text(yaml.safe_dump(camera.to_yaml_dict()))
+    return path
+
+
+def test_the_papers_calibration_is_plausible(camera, caplog):
+    assert plausibility_warnings(camera) == []
+    CameraModel.from_yaml(CONFIG)
+    assert "implausible" not in caplog.text
+
+
+def test_a_principal_point_far_outside_the_image_is_named(tmp_path, caplog):
+    pinhole = CameraModel(width=640, height=480, fx=500, fy=500, cx=99999.0, cy=240)
+    assert plausibility_warnings(pinhole) == ["principal point cx 99999 px lies outside the image (0-639 px)"]
+    path = _camera_info_file(tmp_path, pinhole)
+    assert CameraModel.from_yaml(path).cx == 99999.0  # loaded, and said once
+    CameraModel.from_yaml(path)
+    lines = [r.getMessage() for r in caplog.records]
+    assert lines == [f"{path}: implausible calibration: principal point cx 99999 px lies outside the image (0-639 px)"]
+
+
+def test_a_principal_point_that_puts_the_whole_image_beyond_the_fold_is_refused(tmp_path, camera):
+    path = _camera_info_file(tmp_path, dataclasses.replace(camera, cx=99999.0))
+    with pytest.raises(CameraModelError, match=r"cx 99999 px lies outside.*over the whole image") as info:
+        CameraModel.from_yaml(path)
+    assert str(path) in str(info.value)
+
+
+def test_distortion_that_squeezes_the_image_is_named(camera, caplog):
+    k = camera.matrix.ravel()
+    squeezed = CameraModel.from_camera_info(1920, 1080, k, [50, 80, 0, 0, 90], source="/camera/camera_info")
+    assert squeezed.k3 == 90
+    assert "/camera/camera_info: implausible calibration: distortion k1 50, k2 80, p1 0, p2 0, k3 90 scales " \
+           "image radii by 3.25" in caplog.text
+
+
+def test_distortion_that_folds_over_most_of_the_image_is_refused(camera):
+    k = camera.matrix.ravel()
+    with pytest.raises(CameraModelError, match=r"k1 50, k2 80, p1 90, .* no valid undistortion over 91 % of the image"):
+        CameraModel.from_camera_info(1920, 1080, k, [50, 80, 90, 0, 0])
+    with pytest.raises(CameraModelError, match="expected 0, 4 or 5"):
+        CameraModel.from_camera_info(1920, 1080, k, [50, 80, 90])
+
+
+def test_a_lens_folding_over_a_third_of_the_image_is_warned_about(camera):
+    strong = dataclasses.replace(camera, k1=-0.9, k2=0.0, k3=0.0)
+    assert plausibility_warnings(strong) == [
+        "distortion k1 -0.9, k2 0, p1 0, p2 0, k3 0 has no valid undistortion over 37 % of the image (more than 25 %)"
+    ]
