@@ -10,9 +10,10 @@ from pathlib import Path
 import cv2
 import yaml
 
-from auv_dock_guidance.cli.common import fail, load_camera, positive_float, print_json
+from auv_dock_guidance.cli.common import Number, fail, load_camera, new_path, print_json
 from auv_dock_guidance.errors import DockGuidanceError
 from auv_dock_guidance.geometry.calibration import (
+    SQUARE_RANGE_M,
     Board,
     CalibrationError,
     CalibrationResult,
@@ -32,7 +33,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     )
     c.add_argument("images", nargs="+", metavar="IMAGE")
     c.add_argument("--board", required=True, metavar="COLSxROWS", help="inner corners, e.g. 9x6")
-    c.add_argument("--square", required=True, type=positive_float, metavar="SIZE_M", help="square size in metres")
+    c.add_argument("--square", required=True, type=Number(float, *SQUARE_RANGE_M), metavar="SIZE_M",
+                   help="side of one printed square in metres")
     c.add_argument("--output", "-o", metavar="YAML", help="write the camera_info file here (never over an input "
                    "image; an existing file only with --force)")
     c.add_argument("--force", action="store_true", help="replace an existing --output file")
@@ -143,10 +145,14 @@ def check_output(output: str, inputs: list[str], force: bool) -> None:
                  "even with --force")
     if target.is_dir():
         fail(f"--output {output} is a folder; give a file name")
-    if target.exists() and not force:
-        fail(f"--output {output} exists; give --force to replace it")
-    if not target.parent.is_dir():
-        fail(f"--output {output}: folder {target.parent} does not exist")
+    if target.exists():
+        if not force:
+            fail(f"--output {output} exists; give --force to replace it")
+        return
+    try:
+        new_path(output)
+    except argparse.ArgumentTypeError as exc:
+        fail(f"--output: {exc}")
 
 
 def _same_file(a: Path, b: Path) -> bool:
@@ -159,8 +165,9 @@ def _same_file(a: Path, b: Path) -> bool:
 
 
 def write_replacing(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file beside it, so a failed write never
-    leaves a half-written file in place of the old one."""
+    """Write ``text`` to ``path`` (its folder made if need be) through a temporary file beside
+    it, so a failed write never leaves a half-written file in place of the old one."""
+    path.parent.mkdir(parents=True, exist_ok=True)
     handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
     try:
         with os.fdopen(handle, "w") as stream:
@@ -179,6 +186,7 @@ def run_undistort(args: argparse.Namespace) -> int:
         corrected = undistort_image(image, camera)
     except DockGuidanceError as exc:
         fail(str(exc), code=1)
+    Path(args.output).parent.mkdir(parents=True, exist_ok=True)
     if not cv2.imwrite(args.output, corrected):
         fail(f"cannot write {args.output} (unknown extension or unwritable folder)", code=1)
     print(f"wrote {args.output}")

@@ -86,7 +86,7 @@ def test_absurd_square_sizes_are_refused_before_any_work(board_files, square, ca
         main(["calibrate", *paths, "--board", "9x6", "--square", square])
     assert info.value.code == 2
     err = capsys.readouterr().err
-    assert f"square size {float(square):g} m is outside" in err and "Traceback" not in err
+    assert f"--square: {square} is out of range: must be a number from 1e-05 to 10" in err and "Traceback" not in err
 
 
 def test_calibrate_with_too_few_boards_fails_cleanly(board_files, capsys):
