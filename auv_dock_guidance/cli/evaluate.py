@@ -130,12 +130,18 @@ def _num(value: float | None, unit: str, scale: float = 1.0, digits: int = 2) ->
 
 
 def _print_summary(r: dict[str, Any]) -> None:
-    print(f"frames                 {r['frames']} ({r['marker_frames']} with half of the ring or more in view, "
-          f"{r['corner_frames']} with a corner, {r['empty_frames']} empty)")
-    print(f"detection rate         {_pct(r['detection_rate'])} (whole ring {_pct(r['detection_rate_whole'])} "
-          f"of {r['whole_frames']}, cut by the frame {_pct(r['detection_rate_cut'])} of {r['cut_frames']})")
-    print(f"corners found          {_pct(r['detection_rate_corner'])} of {r['corner_frames']} "
-          f"(wrong object on {r['corner_wrong_object']})")
+    """The report for a person; views apart only where the frame cut some rings."""
+    views = bool(r["cut_frames"] or r["corner_frames"])
+    if views:
+        print(f"frames                 {r['frames']} ({r['marker_frames']} with half of the ring or more in view, "
+              f"{r['corner_frames']} with a corner, {r['empty_frames']} empty)")
+        print(f"detection rate         {_pct(r['detection_rate'])} (whole ring {_pct(r['detection_rate_whole'])} "
+              f"of {r['whole_frames']}, cut by the frame {_pct(r['detection_rate_cut'])} of {r['cut_frames']})")
+        print(f"corners found          {_pct(r['detection_rate_corner'])} of {r['corner_frames']} "
+              f"(wrong object on {r['corner_wrong_object']})")
+    else:
+        print(f"frames                 {r['frames']} ({r['marker_frames']} with the marker, {r['empty_frames']} empty)")
+        print(f"detection rate         {_pct(r['detection_rate'])}")
     print(f"false positives        {r['false_positives']} of {r['empty_frames']} empty frames")
     print(f"reflection chosen      {r['reflection_chosen']} of {r['reflection_frames']} frames with a reflection")
     print(f"wrong object chosen    {r['wrong_object']}")
@@ -143,9 +149,10 @@ def _print_summary(r: dict[str, Any]) -> None:
           f"p95 {_num(r['center_error_px_p95'], ' px')}")
     print(f"range error            p50 {_num(r['range_error_rel_p50'], ' %', 100)}, "
           f"p95 {_num(r['range_error_rel_p95'], ' %', 100)}")
-    for view, name in (("whole", "whole ring"), ("cut", "cut ring")):
-        print(f"  {name:<21}p50 {_num(r[f'range_error_rel_p50_{view}'], ' %', 100)}, "
-              f"p95 {_num(r[f'range_error_rel_p95_{view}'], ' %', 100)}")
+    if views:
+        for view, name in (("whole", "whole ring"), ("cut", "cut ring")):
+            print(f"  {name:<21}p50 {_num(r[f'range_error_rel_p50_{view}'], ' %', 100)}, "
+                  f"p95 {_num(r[f'range_error_rel_p95_{view}'], ' %', 100)}")
     print(f"yaw error              p50 {_num(r['yaw_error_deg_p50'], ' deg', digits=3)}, "
           f"p95 {_num(r['yaw_error_deg_p95'], ' deg', digits=3)}")
     print(f"pitch error            p50 {_num(r['pitch_error_deg_p50'], ' deg', digits=3)}, "

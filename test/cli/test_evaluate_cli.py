@@ -23,3 +23,12 @@ def test_options_of_the_paper_population_are_refused_with_real_dock(option, caps
     assert info.value.code == 2
     err = capsys.readouterr().err
     assert option[0] in err and "paper population" in err and "\n" == err[-1] and err.count("\n") == 1
+
+
+def test_text_report_shows_cut_rings_and_corners_only_where_there_are_any(capsys):
+    assert main(["evaluate", "--population", "real-dock", "--frames", "12", "--seed", "2", "--workers", "1"]) == 0
+    text = capsys.readouterr().out
+    assert "cut by the frame" in text and "corners found" in text and "cut ring" in text
+    assert main(["evaluate", "--frames", "2", "--workers", "1"]) == 0
+    text = capsys.readouterr().out
+    assert "with the marker" in text and "corners" not in text and "cut" not in text
