@@ -28,6 +28,7 @@ class DetectorConfig:
     bilateral: BilateralParams = BilateralParams(diameter=5, sigma_color=30.0, sigma_space=3.0)
     tracking: bool = False  # look near the last marker first; search the whole frame when lost
     full_search_every: int = 15  # while tracking, still search the whole frame this often (frames)
+    track_window_radii: float = 1.5  # tracking window half-width in ring radii (plus room for motion)
     canny_low: float = 0.04  # hysteresis thresholds as shares of the region's contrast, per px
     canny_high: float = 0.10
     threshold: ThresholdConfig = field(default_factory=ThresholdConfig)
@@ -44,6 +45,8 @@ class DetectorConfig:
             raise ConfigError("search_background_px >= 3, max_candidates >= 1, refine_radius_px >= 16")
         if self.full_search_every < 1:
             raise ConfigError(f"full_search_every {self.full_search_every} must be at least 1")
+        if not 0.5 <= self.track_window_radii <= 20.0:
+            raise ConfigError(f"track_window_radii {self.track_window_radii} must be in [0.5, 20]")
         if not 0 < self.canny_low <= self.canny_high:
             raise ConfigError(f"need 0 < canny_low <= canny_high, got {self.canny_low}, {self.canny_high}")
 

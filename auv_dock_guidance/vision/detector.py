@@ -26,9 +26,10 @@ from auv_dock_guidance.vision.edges import BilateralParams
 from auv_dock_guidance.vision.fit import fit_region
 from auv_dock_guidance.vision.image_input import as_bgr_or_gray8
 from auv_dock_guidance.vision.refine import Refiner, Region, add_region
-from auv_dock_guidance.vision.search import Window, search, track_window
+from auv_dock_guidance.vision.search import Window, search
 from auv_dock_guidance.vision.selection import choose
 from auv_dock_guidance.vision.threshold import AdaptiveThreshold
+from auv_dock_guidance.vision.tracking import UNSTAMPED_FRAME_S, WindowTracker
 
 __all__ = ["Detection", "Detector", "DetectorConfig", "PaperBaseline"]
 
@@ -40,27 +41,32 @@ class Detector:
         self.camera = camera
         self.config = config
         self.threshold = AdaptiveThreshold(config.threshold)
-        self._last: Detection | None = None  # the previous frame's marker, for tracking
+        self._last: Detection | None = None  # the previous frame's marker
+        self.tracker = WindowTracker()
         self._frames = 0
 
     def reset(self) -> None:
         self.threshold.reset()
+        self.tracker.reset()
         self._last = None
         self._frames = 0
 
-    def detect(self, image: np.ndarray) -> Detection:
+    def detect(self, image: np.ndarray, stamp_s: float | None = None) -> Detection:
+        """The marker in one frame; ``stamp_s`` (the frame's time) lets tracking allow for
+        skipped frames (without it, frames count as evenly spaced at 30 fps)."""
         image = self._checked(image)
         detection = None
         self._frames += 1
-        tracking = self.config.tracking and self._last is not None
-        if tracking and self._frames % self.config.full_search_every != 0:
-            assert self._last is not None
-            detection = self._detect_in(image, [track_window(image, self._last)])
+        time_s = self._frames * UNSTAMPED_FRAME_S if stamp_s is None else stamp_s
+        window = self.tracker.window(image.shape[:2], time_s, self.config.track_window_radii) \
+            if self.config.tracking else None
+        if window is not None and self._frames % self.config.full_search_every != 0:
+            detection = self._detect_in(image, [window])
             if not detection.found:
                 detection = None  # lost: search the whole frame
         if detection is None:
             detection = self._detect_in(image, search(image, self.config, self._lens_scale, self._min_radius_px))
-        self._remember(detection)
+        self._remember(detection, time_s)
         return detection
 
     def fit_camera(self, width: int, height: int) -> str | None:
@@ -76,11 +82,12 @@ class Detector:
         return (f"images are {width}x{height}, the camera model {camera.width}x{camera.height}: "
                 f"model scaled by {width / camera.width:.4g}")
 
-    def _remember(self, detection: Detection) -> None:
+    def _remember(self, detection: Detection, time_s: float) -> None:
         """Carry a frame's outcome to the next: the threshold share (steered by the ring's size
         as the paper's camera would see it) and the window to track."""
         self.threshold.update(detection.radius_px / self._lens_scale if detection.found else None)
         self._last = detection if detection.found else None
+        self.tracker.update(detection, time_s)
 
     @property
     def _lens_scale(self) -> float:
@@ -131,11 +138,11 @@ class PaperBaseline(Detector):
         )
         super().__init__(camera, literal)
 
-    def detect(self, image: np.ndarray) -> Detection:
+    def detect(self, image: np.ndarray, stamp_s: float | None = None) -> Detection:
         image = self._checked(image)
         h, w = image.shape[:2]
         radius = self._last.radius_px if self._last is not None else \
             self.config.threshold.reference_radius_px * self._lens_scale
         detection = self._detect_in(image, [((0, 0, w, h), radius)])
-        self._remember(detection)
+        self._remember(detection, 0.0)
         return detection

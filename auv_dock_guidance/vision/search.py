@@ -15,7 +15,6 @@ import cv2
 import numpy as np
 
 from auv_dock_guidance.vision.config import DetectorConfig
-from auv_dock_guidance.vision.detection import Detection
 from auv_dock_guidance.vision.image_input import intensity
 
 Box = tuple[int, int, int, int]  # x0, y0, x1, y1 in full-resolution pixels
@@ -78,16 +77,6 @@ def search(image: np.ndarray, config: DetectorConfig, lens_scale: float, min_rad
             if not _covered(box, radius, boxes):
                 boxes.append((box, radius))
     return boxes
-
-
-def track_window(image: np.ndarray, last: Detection) -> Window:
-    """A window around the last detection, wide enough for the ring to move between frames."""
-    h, w = image.shape[:2]
-    r = max(last.radius_px, last.mec_radius_px if math.isfinite(last.mec_radius_px) else 0.0)
-    half = 1.5 * r + 24
-    box = (max(0, int(last.u - half)), max(0, int(last.v - half)),
-           min(w, int(math.ceil(last.u + half))), min(h, int(math.ceil(last.v + half))))
-    return box, r
 
 
 def _covered(box: Box, radius: float, boxes: list[Window]) -> bool:

@@ -2,8 +2,7 @@ import cv2
 import numpy as np
 
 from auv_dock_guidance.vision.config import DetectorConfig, lens_scale
-from auv_dock_guidance.vision.detection import Detection
-from auv_dock_guidance.vision.search import search, track_window
+from auv_dock_guidance.vision.search import search
 
 
 def _frame_with_ring_and_lamp(camera):
@@ -27,10 +26,3 @@ def test_search_in_empty_water_finds_nothing(camera):
     rng = np.random.default_rng(1)
     image = np.clip(rng.normal(30, 2, (camera.height, camera.width, 3)), 0, 255).astype(np.uint8)
     assert search(image, DetectorConfig(), lens_scale(camera), 10.0) == []
-
-
-def test_the_tracking_window_holds_the_last_ring_with_room_to_move(camera):
-    image = np.zeros((camera.height, camera.width), np.uint8)
-    (x0, y0, x1, y1), radius = track_window(image, Detection(found=True, u=60.0, v=500.0, radius_px=50.0))
-    assert radius == 50.0
-    assert x0 == 0 and x1 >= 60 + 1.5 * 50 and y0 <= 500 - 75 and y1 >= 500 + 75
