@@ -6,15 +6,22 @@ Subscribes  sim/vehicle_pose (geometry_msgs/PoseStamped, source 'sim' only)
 Sources (parameter ``source``): 'device' (V4L2 index or path), 'video' (file or GStreamer
 pipeline via OpenCV), 'folder' (images in name order, optionally looping), 'sim' (renders
 the pool scene from the vehicle pose the simulator publishes).
+Frames are captured on a thread of their own, on the camera's clock whatever the consumers
+do, and stamped when captured. camera/image_raw is only filled while someone subscribes
+(one copy of the frame into the message); a detector in the same process (vision_pipeline)
+gets each frame through ``frame_sinks`` without a copy.
 """
 
 from __future__ import annotations
 
+import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import cv2
 import numpy as np
+from builtin_interfaces.msg import Time as TimeMsg
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
@@ -36,6 +43,7 @@ from auv_dock_guidance.sim.scene import render
 from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
 from auv_dock_guidance.vision.image_input import read_image
 
+FrameSink = Callable[[np.ndarray, TimeMsg, str, int], None]  # (frame, stamp, frame_id, sequence number)
 IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"}
 MAX_CACHED_FRAMES = 64  # about 400 MB of 1080p frames
 
@@ -67,6 +75,7 @@ class CameraIngestNode(Node):
         self.info_pub = self.create_publisher(CameraInfo, "camera/camera_info", 1)
         self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.frames = 0
+        self.frame_sinks: list[FrameSink] = []  # consumers in this process, called on the capture thread
         self.problems = InputProblems(self)
         self.stalls = 0
         self._last_frame = time.monotonic()
@@ -93,14 +102,34 @@ class CameraIngestNode(Node):
                 raise ConfigError(f"cannot open {source} {path!r}")
         else:
             raise ConfigError(f"source {source!r} must be device, video, folder or sim")
-        period = 0.001 if source in ("device", "video") else 1.0 / self.values["rate_hz"]
-        self.create_timer(period, self._on_timer)
         self.create_timer(1.0, lambda: publish_diagnostics(self, self.diag_pub, self.diagnostics()))
         self.get_logger().info(f"source {source} {self.values['path']} -> {self.camera.width}x{self.camera.height}")
+        period = 0.001 if source in ("device", "video") else 1.0 / self.values["rate_hz"]
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._capture_loop, args=(period,), name="capture", daemon=True)
+        self._thread.start()
 
     def close(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=2.0)
         if self._capture is not None:
             self._capture.release()
+
+    def _capture_loop(self, period_s: float) -> None:
+        """Capture at ``period_s`` (a device or video paces itself): late ticks are not made up
+        in a burst, as a camera does not deliver the frames it missed."""
+        due = time.monotonic()
+        while not self._stop.is_set():
+            due += period_s
+            wait = due - time.monotonic()
+            if wait > 0:
+                self._stop.wait(wait)
+            elif wait < -period_s:
+                due = time.monotonic()
+            try:
+                self._capture_once()
+            except Exception as exc:
+                self.problems.report("capture", f"{type(exc).__name__}: {exc}")
 
     def _on_pose(self, msg: PoseStamped) -> None:
         self._pose = pose_to_vehicle(msg)
@@ -137,7 +166,7 @@ class CameraIngestNode(Node):
             return None
         return frame
 
-    def _on_timer(self) -> None:
+    def _capture_once(self) -> None:
         frame = self._next_frame()
         now = time.monotonic()
         if frame is None:
@@ -156,9 +185,12 @@ class CameraIngestNode(Node):
                                  f"{self.camera.width}x{self.camera.height}")
             return
         stamp = seconds_stamp(time.time())
-        self.info_pub.publish(camera_to_info(self.camera, stamp))
-        self.image_pub.publish(array_to_image(frame, stamp, self.camera.frame_id))
         self.frames += 1
+        for sink in self.frame_sinks:
+            sink(frame, stamp, self.camera.frame_id, self.frames)
+        self.info_pub.publish(camera_to_info(self.camera, stamp))
+        if self.image_pub.get_subscription_count() > 0:
+            self.image_pub.publish(array_to_image(frame, stamp, self.camera.frame_id))
 
     def diagnostics(self) -> DiagnosticStatus:
         """Frames and stalls; WARN while stalled or refusing input."""

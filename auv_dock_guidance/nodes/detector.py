@@ -8,18 +8,28 @@ Publishes   dock/target (geometry_msgs/PointStamped, metres, camera optical fram
             dock/marker (visualization_msgs/Marker: the ring and the dock axis; DELETE when lost),
             dock/detected (std_msgs/Bool, every frame),
             dock/debug_image/compressed (sensor_msgs/CompressedImage, JPEG, throttled),
-            /diagnostics (diagnostic_msgs/DiagnosticArray, 1 Hz)
-The image subscription keeps only the newest frame: a slow frame never queues stale ones.
+            /diagnostics (diagnostic_msgs/DiagnosticArray, 1 Hz: rate, skipped frames, timings)
+Tracking (on by default) refines a window around where the marker is predicted to be, and
+searches the whole frame when it is lost and every ``full_search_every`` frames.
+Only the newest frame is processed: a slow frame never queues stale ones. Frames the
+camera published but the detector never saw are counted from the publisher's sequence
+numbers and reported on /diagnostics. In one process with camera_ingest
+(vision_pipeline) frames are handed over directly (``submit``), without a copy.
 Frames whose stamp repeats or goes back, malformed frames and unusable camera info are
 refused, logged with the reason and counted on /diagnostics (WARN while it happens).
 """
 
 from __future__ import annotations
 
+import threading
 import time
 from collections import deque
-from typing import Any
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, cast
 
+import numpy as np
+from builtin_interfaces.msg import Time as TimeMsg
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PointStamped, PoseWithCovarianceStamped, Vector3Stamped
 from rclpy.node import Node
@@ -61,6 +71,9 @@ PARAMS = [
     Param("camera_info_file", "", "camera_info YAML; empty: use the camera_info topic"),
     Param("reliable", True, "reliable image QoS (with the shared-memory profile) instead of best effort",
           read_only=True),
+    Param("tracking", True, "refine a window around the predicted marker; search the whole frame when lost"),
+    Param("track_window_radii", 1.5, "tracking window half-width in ring radii (plus room for motion)", 0.5, 20.0),
+    Param("full_search_every", 15, "while tracking, still search the whole frame this often (frames)", 1, 1000),
     Param("debug_image_rate_hz", 2.0, "debug overlay rate (0 = off)", 0.0, 30.0),
     Param("debug_image_scale", 0.25, "debug overlay size relative to the frame", 0.05, 1.0),
     Param("debug_jpeg_quality", 60, "debug overlay JPEG quality", 10, 100),
@@ -83,13 +96,46 @@ def detector_config(values: dict[str, Any]) -> DetectorConfig:
     return DetectorConfig(
         marker_radius_m=float(values["marker_radius_m"]),
         max_range_m=float(values["max_range_m"]),
+        tracking=bool(values["tracking"]),
+        track_window_radii=float(values["track_window_radii"]),
+        full_search_every=int(values["full_search_every"]),
         threshold=threshold,
         selection=selection,
     )
 
 
-class DetectorNode(Node):
+@dataclass(frozen=True)
+class Frame:
+    """A camera frame on its way to the detector; ``sequence`` counts the camera's frames."""
+
+    image: np.ndarray
+    stamp: TimeMsg
+    frame_id: str
+    sequence: int
+
+
+class NewestFrame:
+    """One slot between a camera thread and the detector: a frame not taken before the next
+    one arrives is replaced (the detector works on the newest)."""
+
     def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._frame: Frame | None = None
+
+    def put(self, frame: Frame) -> None:
+        with self._lock:
+            self._frame = frame
+
+    def take(self) -> Frame | None:
+        with self._lock:
+            frame, self._frame = self._frame, None
+        return frame
+
+
+class DetectorNode(Node):
+    def __init__(self, subscribe: bool = True) -> None:
+        """``subscribe``: frames come from the camera/image_raw topic; otherwise only
+        through ``submit`` (camera_ingest in the same process)."""
         super().__init__("detector")
         self.values = declare(self, PARAMS)
         self.config = detector_config(self.values)
@@ -99,7 +145,10 @@ class DetectorNode(Node):
         on_parameter_change(self, self._apply_parameters)
         reliability = ReliabilityPolicy.RELIABLE if self.values["reliable"] else ReliabilityPolicy.BEST_EFFORT
         newest_only = QoSProfile(depth=1, history=HistoryPolicy.KEEP_LAST, reliability=reliability)
-        self.create_subscription(Image, "camera/image_raw", self._on_image, newest_only)
+        if subscribe:
+            # rclpy passes the message info (publication sequence numbers) to two-argument callbacks
+            with_info = cast(Callable[[Any], None], self._on_image)
+            self.create_subscription(Image, "camera/image_raw", with_info, newest_only)
         self.create_subscription(CameraInfo, "camera/camera_info", self._on_camera_info, 1)
         self.target_pub = self.create_publisher(PointStamped, "dock/target", 10)
         self.bearing_pub = self.create_publisher(Vector3Stamped, "dock/bearing", 10)
@@ -109,9 +158,15 @@ class DetectorNode(Node):
         self.debug_pub = self.create_publisher(CompressedImage, "dock/debug_image/compressed", 1)
         self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_timer(1.0, lambda: publish_diagnostics(self, self.diag_pub, self.diagnostics()))
-        self._times: deque[tuple[float, float, bool]] = deque(maxlen=300)  # (wall time, processing s, found)
+        self._times: deque[tuple[float, float, bool, float]] = deque(maxlen=300)  # (time, s, found, frame age s)
+        self._skips: deque[tuple[float, int]] = deque(maxlen=300)  # (time, frames skipped)
         self.problems = InputProblems(self)
         self._frame_order = StampGate()
+        self._inbox = NewestFrame()
+        self._wake = self.create_guard_condition(self._on_submitted)
+        self._last_sequence: int | None = None
+        self.frames_processed = 0
+        self.frames_skipped = 0
         self._last_debug = 0.0
         self._last_marker = 0.0
         self._found = False
@@ -140,34 +195,61 @@ class DetectorNode(Node):
             self.get_logger().info(f"camera model {camera.width}x{camera.height} fx {camera.fx:.1f} from camera_info")
             self._calibrated = self.detector.camera = camera
 
-    def _on_image(self, msg: Image) -> None:
+    def submit(self, image: np.ndarray, stamp: TimeMsg, frame_id: str, sequence: int) -> None:
+        """A frame from camera_ingest in this process (any thread): processed on this node's
+        executor, unless a newer one comes first."""
+        self._inbox.put(Frame(image, stamp, frame_id, sequence))
+        self._wake.trigger()
+
+    def _on_submitted(self) -> None:
+        frame = self._inbox.take()
+        if frame is not None:
+            self._count_skipped(frame.sequence)
+            self._process(frame)
+
+    def _on_image(self, msg: Image, info: dict[str, Any]) -> None:
+        sequence = info.get("publication_sequence_number")
+        sequence = sequence if isinstance(sequence, int) else -1
+        self._count_skipped(sequence)
+        try:
+            image = image_to_array(msg)
+        except DockGuidanceError as exc:
+            self.problems.report("frame", str(exc))
+            return
+        self._process(Frame(image, msg.header.stamp, msg.header.frame_id, sequence))
+
+    def _count_skipped(self, sequence: int) -> None:
+        """Count the frames the camera sent between the last one that reached the detector and
+        this one (never seen: a newer one came while a frame was processed)."""
+        last, self._last_sequence = self._last_sequence, sequence if sequence >= 0 else None
+        if last is not None and sequence > last + 1:  # not the first, numbered, not a restarted camera
+            self.frames_skipped += sequence - last - 1
+            self._skips.append((time.monotonic(), sequence - last - 1))
+
+    def _process(self, frame: Frame) -> None:
         if self.detector.camera is None:
             if not self._warned_no_camera:
                 self._warned_no_camera = True
                 self.get_logger().warn("no camera model yet (camera_info topic or camera_info_file): frames skipped")
             return
-        stamp = stamp_seconds(msg.header.stamp)
+        stamp = stamp_seconds(frame.stamp)
         out_of_order = self._frame_order.admit(stamp)
         if out_of_order is not None:
             self.problems.report("frame_stamp", f"{out_of_order} (frame stamped {stamp:.3f} s)")
             return
         start = time.perf_counter()
         try:
-            frame = image_to_array(msg)
-            note = self.detector.fit_camera(frame.shape[1], frame.shape[0])
+            note = self.detector.fit_camera(frame.image.shape[1], frame.image.shape[0])
             if note is not None:
                 self.get_logger().info(note)
-            detection = self.detector.detect(frame)
+            detection = self.detector.detect(frame.image, stamp)
         except DockGuidanceError as exc:
             self.problems.report("frame", str(exc))
             return
         elapsed = time.perf_counter() - start
-        self._times.append((time.monotonic(), elapsed, detection.found))
         self.detected_pub.publish(Bool(data=detection.found))
         pose = detection.pose
-        header = msg.header
-        if header.frame_id == "":
-            header.frame_id = self.detector.camera.frame_id
+        header = Header(stamp=frame.stamp, frame_id=frame.frame_id or self.detector.camera.frame_id)
         if detection.found and pose is not None:
             self._publish_position(header, pose)
             self._publish_dock_pose(header, detection)
@@ -177,7 +259,9 @@ class DetectorNode(Node):
             if not detection.found:
                 for marker in clear_dock_markers(header):
                     self.marker_pub.publish(marker)
-        self._maybe_publish_debug(msg, frame, detection)
+        self.frames_processed += 1
+        self._times.append((time.monotonic(), elapsed, detection.found, time.time() - stamp))
+        self._maybe_publish_debug(frame, detection)
 
     def _publish_position(self, header: Header, pose: MarkerPose) -> None:
         target = PointStamped()
@@ -212,7 +296,7 @@ class DetectorNode(Node):
             for marker in dock_markers(pose, radius, header):
                 self.marker_pub.publish(marker)
 
-    def _maybe_publish_debug(self, msg: Image, frame: Any, detection: Any) -> None:
+    def _maybe_publish_debug(self, frame: Frame, detection: Any) -> None:
         rate = self.values["debug_image_rate_hz"]
         now = time.monotonic()
         if rate <= 0 or now - self._last_debug < 1.0 / rate or self.debug_pub.get_subscription_count() == 0:
@@ -222,33 +306,49 @@ class DetectorNode(Node):
         assert camera is not None  # frames are only processed with a camera model
         text = overlay_text(detection, self.detector.threshold.fraction)
         out = CompressedImage()
-        out.header = msg.header
+        out.header.stamp, out.header.frame_id = frame.stamp, frame.frame_id
         out.format = "jpeg"
-        out.data = overlay_jpeg(frame, detection, (camera.cx, camera.cy), text,
+        out.data = overlay_jpeg(frame.image, detection, (camera.cx, camera.cy), text,
                                 self.values["debug_image_scale"], self.values["debug_jpeg_quality"])
         self.debug_pub.publish(out)
 
     def diagnostics(self) -> DiagnosticStatus:
-        """Rate, processing time, detection rate, threshold; WARN without frames or while input is refused."""
+        """Real rate, frames skipped, processing time, frame age at publication, detection rate,
+        threshold; WARN without frames, while skipping more than 1 % of them, or refusing input."""
         now = time.monotonic()
         recent = [t for t in self._times if now - t[0] < 5.0]
         fps = len(recent) / 5.0
         processing = sorted(t[1] for t in recent)
+        ages = sorted(t[3] for t in recent)
+        skipped = sum(n for t, n in self._skips if now - t < 5.0)
         share = self.detector.threshold.fraction
         level, message = (DiagnosticStatus.OK, f"{fps:.1f} fps") if recent else \
             (DiagnosticStatus.WARN, "no frames processed in the last 5 s")
+        if skipped > 0.01 * (skipped + len(recent)):
+            level, message = DiagnosticStatus.WARN, f"{message}; behind the camera: {skipped} frames skipped in 5 s"
         if self.problems.recent():
             level, message = DiagnosticStatus.WARN, f"{message}; refusing input: {self.problems.last_reason}"
         return diagnostic_status(
             "detector", "camera", level, message,
             {
                 "fps": f"{fps:.2f}",
-                "processing_ms_p50": f"{1000 * processing[len(processing) // 2]:.2f}" if processing else "nan",
+                "frames_processed": self.frames_processed,
+                "frames_skipped": self.frames_skipped,
+                "skipped_last_5s": skipped,
+                "tracking": "on" if self.config.tracking else "off",
+                "processing_ms_p50": _ms(processing, 0.5),
+                "processing_ms_p95": _ms(processing, 0.95),
+                "frame_age_ms_p95": _ms(ages, 0.95),
                 "detection_rate": f"{sum(t[2] for t in recent) / len(recent):.3f}" if recent else "0",
                 "threshold_share": f"{share:.3f}" if share is not None else "nan",
                 **self.problems.values(),
             },
         )
+
+
+def _ms(ordered: list[float], quantile: float) -> str:
+    """A quantile of sorted seconds, in milliseconds ('nan' when empty)."""
+    return f"{1000 * ordered[min(len(ordered) - 1, int(quantile * len(ordered)))]:.2f}" if ordered else "nan"
 
 
 def main(args: list[str] | None = None) -> int:

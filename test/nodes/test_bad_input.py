@@ -15,8 +15,7 @@ import pytest
 import rclpy
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PointStamped
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.node import Node
+from node_harness import beside, spin_until  # test/nodes is on the path (pytest's prepend import)
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CameraInfo, Image, Imu
 from std_msgs.msg import Bool, Float64, UInt16MultiArray
@@ -29,22 +28,6 @@ from auv_dock_guidance.nodes.guidance import GuidanceNode
 from auv_dock_guidance.nodes.serial_bridge import SerialBridgeNode
 from auv_dock_guidance.sim.main_controller import MainControllerSim
 from auv_dock_guidance.sim.scene import SceneSpec, render
-
-
-def beside(node: Node, name: str = "harness") -> tuple[Node, SingleThreadedExecutor]:
-    """A harness node next to ``node``, both on one executor."""
-    harness = rclpy.create_node(name)
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
-    executor.add_node(harness)
-    return harness, executor
-
-
-def spin_until(executor: SingleThreadedExecutor, done: Callable[[], bool], timeout_s: float = 10.0) -> None:
-    end = time.monotonic() + timeout_s
-    while not done():
-        assert time.monotonic() < end, "timed out waiting for the node"
-        executor.spin_once(timeout_sec=0.05)
 
 
 def test_detector_refuses_bad_frames_and_camera_info_and_keeps_detecting(ros, capfd):
