@@ -7,9 +7,11 @@ Sources (parameter ``source``): 'device' (V4L2 index or path), 'video' (file or 
 pipeline via OpenCV), 'folder' (images in name order, optionally looping), 'sim' (renders
 the pool scene from the vehicle pose the simulator publishes).
 Frames are captured on a thread of their own, on the camera's clock whatever the consumers
-do, and stamped when captured. camera/image_raw is only filled while someone subscribes
-(one copy of the frame into the message); a detector in the same process (vision_pipeline)
-gets each frame through ``frame_sinks`` without a copy.
+do, and stamped when captured (the sim source renders on the executor instead: rendering
+stands in for camera hardware and must not take the CPU from the detector).
+camera/image_raw is only filled while someone subscribes (one copy of the frame into the
+message); a detector in the same process (vision_pipeline) gets each frame through
+``frame_sinks`` without a copy.
 """
 
 from __future__ import annotations
@@ -106,12 +108,17 @@ class CameraIngestNode(Node):
         self.get_logger().info(f"source {source} {self.values['path']} -> {self.camera.width}x{self.camera.height}")
         period = 0.001 if source in ("device", "video") else 1.0 / self.values["rate_hz"]
         self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._capture_loop, args=(period,), name="capture", daemon=True)
-        self._thread.start()
+        self._thread: threading.Thread | None = None
+        if source == "sim":  # rendering stands in for the camera's own hardware: on the executor,
+            self.create_timer(period, self._capture_once)  # between detections, never starving them
+        else:
+            self._thread = threading.Thread(target=self._capture_loop, args=(period,), name="capture", daemon=True)
+            self._thread.start()
 
     def close(self) -> None:
         self._stop.set()
-        self._thread.join(timeout=2.0)
+        if self._thread is not None:
+            self._thread.join(timeout=2.0)
         if self._capture is not None:
             self._capture.release()
 
