@@ -22,6 +22,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 import yaml
 
@@ -251,15 +252,31 @@ class CameraModel:
     def pixels_to_normalized(self, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Distorted pixels (N, 2) -> (ideal normalized coordinates (N, 2), valid (N,)).
 
-        Newton iterations on the full plumb_bob model, started from the distorted point.
-        A result is valid only when it lies inside the fold and re-distorts to the input
-        within 0.05 px; anything else (for example image corners beyond the fold) is
-        flagged, never silently returned as if it were right.
+        Newton iterations on the full plumb_bob model, started from OpenCV's approximate
+        undistortion (a step or two then suffice); points that do not come out valid start
+        again from the distorted point. A result is valid only when it lies inside the fold
+        and re-distorts to the input within 0.05 px; anything else (for example image
+        corners beyond the fold) is flagged, never silently returned as if it were right.
         """
         pix = np.asarray(pixels, dtype=float)
         target = np.stack([(pix[..., 0] - self.cx) / self.fx, (pix[..., 1] - self.cy) / self.fy], -1)
-        xy = target.copy()
-        for _ in range(20):
+        flat = pix.reshape(-1, 1, 2)
+        start = target.copy()
+        if flat.shape[0]:
+            guess = cv2.undistortPoints(flat, self.matrix, np.array(self.distortion)).reshape(target.shape)
+            start = np.where(np.isfinite(guess), guess, target)
+        xy, converged = self._newton(target, start, iterations=4)
+        valid = converged & self._round_trip(xy, pix)
+        if not valid.all():  # where the quick start led astray: from the distorted point, as always
+            retry = ~valid
+            xy[retry] = self._newton(target[retry], target[retry].copy())[0]
+            valid[retry] = self._round_trip(xy[retry], pix[retry])
+        return xy, valid
+
+    def _newton(self, target: np.ndarray, xy: np.ndarray, iterations: int = 20) -> tuple[np.ndarray, np.ndarray]:
+        """Normalized points that distort to ``target``, iterated from ``xy``, and which converged."""
+        norm = np.full(target.shape[:-1], np.inf)
+        for _ in range(iterations):
             residual = self.distort_normalized(xy) - target
             j = self._distortion_jacobian(xy)
             det = j[..., 0, 0] * j[..., 1, 1] - j[..., 0, 1] * j[..., 1, 0]
@@ -273,10 +290,13 @@ class CameraModel:
             xy = xy - step
             if float(np.max(norm, initial=0.0)) < 1e-10:
                 break
+        return xy, norm < 1e-10
+
+    def _round_trip(self, xy: np.ndarray, pix: np.ndarray) -> np.ndarray:
+        """Inside the fold and back on the input pixel within tolerance."""
         back = self.normalized_to_pixels(xy)
         error_px = np.hypot(back[..., 0] - pix[..., 0], back[..., 1] - pix[..., 1])
-        valid = np.isfinite(error_px) & (error_px < _ROUND_TRIP_TOL_PX) & self.normalized_valid(xy)
-        return xy, valid
+        return np.isfinite(error_px) & (error_px < _ROUND_TRIP_TOL_PX) & self.normalized_valid(xy)
 
     def _distortion_jacobian(self, xy: np.ndarray) -> np.ndarray:
         x, y = xy[..., 0], xy[..., 1]

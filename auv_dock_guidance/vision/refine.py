@@ -20,6 +20,7 @@ from auv_dock_guidance.geometry.camera import CameraModel
 from auv_dock_guidance.vision.config import DetectorConfig, lens_scale, min_ring_radius_px
 from auv_dock_guidance.vision.edges import bilateral, improved_canny
 from auv_dock_guidance.vision.image_input import intensity
+from auv_dock_guidance.vision.levels import median_and_mad
 from auv_dock_guidance.vision.normalized import cut_shape, outline_residual
 from auv_dock_guidance.vision.outline import on_border, pixel_area, to_full
 from auv_dock_guidance.vision.search import Box
@@ -62,8 +63,8 @@ class Refiner:
             return []
         smooth = bilateral(gray, c.bilateral)
         border = np.concatenate([smooth[0], smooth[-1], smooth[:, 0], smooth[:, -1]])
-        background = float(np.median(border))
-        noise = max(0.5, 1.4826 * float(np.median(np.abs(border - background))))
+        background, deviation = median_and_mad(border)
+        noise = max(0.5, 1.4826 * deviation)
         _, peak, _, _ = cv2.minMaxLoc(cv2.GaussianBlur(smooth, (3, 3), 0))
         fraction = self.threshold.fraction_for(radius_estimate / self.lens_scale)
         level = self.threshold.level(background, peak, noise, fraction)

@@ -10,15 +10,18 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 
 import cv2
 import numpy as np
 
 from auv_dock_guidance.vision.config import DetectorConfig
 from auv_dock_guidance.vision.image_input import intensity
+from auv_dock_guidance.vision.levels import median_and_mad
 
 Box = tuple[int, int, int, int]  # x0, y0, x1, y1 in full-resolution pixels
 Window = tuple[Box, float]  # a box to refine and the radius the ring is expected to have in it
+Extent = tuple[float, float, float, float]  # x0, y0, x1, y1 of a region, full-resolution px
 
 
 def search(image: np.ndarray, config: DetectorConfig, lens_scale: float, min_radius_px: float) -> list[Window]:
@@ -41,15 +44,15 @@ def search(image: np.ndarray, config: DetectorConfig, lens_scale: float, min_rad
     kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (k, k))
     background = cv2.blur(cv2.morphologyEx(gray, cv2.MORPH_OPEN, kernel), (k, k))
     tophat = cv2.subtract(gray, background)
-    sample = tophat[::2, ::2]
-    typical = float(np.median(sample))
-    noise = 1.4826 * float(np.median(np.abs(sample.astype(np.float32) - typical)))
+    typical, deviation = median_and_mad(tophat[::2, ::2])
+    noise = 1.4826 * deviation
     # Search wide: a low floor finds faint, far rings; the refinement's floor decides.
     floor = typical + max(c.search_floor_grey, c.search_floor_noise_sigmas * noise)
     bright = floor + 0.5 * (float(tophat.max()) - floor)
     h, w = image.shape[:2]
     min_radius = 0.7 * max(c.selection.min_radius_px, min_radius_px)  # smaller: no ring we accept
     boxes: list[Window] = []
+    cores: list[tuple[Extent, float]] = []  # each region's own extent (the grouping's growth taken off)
     low, high = (cv2.threshold(tophat, level, 255, cv2.THRESH_BINARY)[1] for level in (floor, bright))
     for mask, gap_px in [*itertools.product([low], c.search_gaps_px), (high, 0), (high, 32)]:
         kernel_size = int(round(gap_px * lens * s)) | 1
@@ -57,6 +60,7 @@ def search(image: np.ndarray, config: DetectorConfig, lens_scale: float, min_rad
             mask, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (kernel_size, kernel_size))
         )
         count, labels, stats, _ = cv2.connectedComponentsWithStats(grouped, connectivity=8)
+        grow = (kernel_size - 1) // 2  # how far the grouping widened each region (small-copy px)
         found = []
         for i in range(1, count):
             x, y, bw, bh = (int(v) for v in stats[i, :4])
@@ -64,9 +68,13 @@ def search(image: np.ndarray, config: DetectorConfig, lens_scale: float, min_rad
             radius = max(1.0, 0.5 * max(x1 - x0, y1 - y0) - 0.5 * (kernel_size - 1) / s)
             if radius >= min_radius:
                 peak = float(tophat[y:y + bh, x:x + bw][labels[y:y + bh, x:x + bw] == i].max())
-                found.append((peak, radius, (x0, y0, x1, y1)))
+                core = (x0 + grow / s, y0 + grow / s, x1 - grow / s, y1 - grow / s)
+                found.append((peak, radius, (x0, y0, x1, y1), core))
         found.sort(reverse=True)  # brightest first: a web of caustics or glow must not crowd the LEDs out
-        for _, radius, (x0, y0, x1, y1) in found[: c.max_candidates]:
+        for _, radius, (x0, y0, x1, y1), core in found[: c.max_candidates]:
+            if _covered(core, radius, cores):
+                continue  # a wider grouping that added nothing: the same region, refined already
+            cores.append((core, radius))
             margin = 0.25 * radius + 12 + 0.5 * kernel_size / s
             box = (
                 max(0, int(x0 - margin)),
@@ -79,7 +87,7 @@ def search(image: np.ndarray, config: DetectorConfig, lens_scale: float, min_rad
     return boxes
 
 
-def _covered(box: Box, radius: float, boxes: list[Window]) -> bool:
+def _covered(box: Extent, radius: float, boxes: Sequence[tuple[Extent, float]]) -> bool:
     """A window adds nothing when another nearly the same, or one at most twice as large that
     contains it, is already refined."""
     return any(
@@ -90,7 +98,7 @@ def _covered(box: Box, radius: float, boxes: list[Window]) -> bool:
     )
 
 
-def _overlap(a: Box, b: Box) -> float:
+def _overlap(a: Extent, b: Extent) -> float:
     """Intersection over union of two boxes (x0, y0, x1, y1)."""
     ix = max(0, min(a[2], b[2]) - max(a[0], b[0]))
     iy = max(0, min(a[3], b[3]) - max(a[1], b[1]))
