@@ -214,10 +214,11 @@ def dock_look(rng: np.random.Generator, discrete_share: float = 0.5) -> SceneSpe
         return replace(
             spec,
             led_count=int(rng.integers(6, 13)),
+            strip_width_m=rng.uniform(0.008, 0.025),  # the LED's lit dome
             led_bgr=_BLOOMING_LED_COLOURS[rng.integers(len(_BLOOMING_LED_COLOURS))],
-            brightness=float(np.exp(rng.uniform(np.log(100.0), np.log(2000.0)))),
-            led_psf_tail=rng.uniform(0.1, 0.4),
-            led_psf_tail_rad=float(np.exp(rng.uniform(np.log(0.005), np.log(0.03)))),
+            brightness=float(np.exp(rng.uniform(np.log(100.0), np.log(1500.0)))),
+            led_psf_tail=rng.uniform(0.1, 0.3),
+            led_psf_tail_rad=float(np.exp(rng.uniform(np.log(0.005), np.log(0.02)))),
             funnel=funnel,
         )
     return replace(
