@@ -28,7 +28,7 @@ from rosbags.typesys import Stores, get_typestore
 from auv_dock_guidance.control.cascade import Attitude, Target
 from auv_dock_guidance.control.guidance import Guidance, GuidanceConfig, State
 from auv_dock_guidance.errors import CameraModelError, DockGuidanceError
-from auv_dock_guidance.geometry.camera import CameraModel
+from auv_dock_guidance.geometry.camera import ApproximateLens, CameraModel
 from auv_dock_guidance.geometry.rotations import navigation_attitude
 from auv_dock_guidance.salvage import SalvagedBag
 from auv_dock_guidance.vision.detector import Detector, DetectorConfig
@@ -168,7 +168,9 @@ def replay(
     detector_config: DetectorConfig = DetectorConfig(),
     guidance_config: GuidanceConfig = GuidanceConfig(),
     progress: Callable[[int, int], None] | None = None,
+    lens: ApproximateLens | None = None,
 ) -> ReplaySummary:
+    """``lens``: an approximate camera for a bag recorded without calibration (camera_info ignored)."""
     if not bag.exists():
         raise BagError(f"{bag}: no such bag")
     if output is not None and output.exists():
@@ -182,13 +184,16 @@ def replay(
         image_ids = {c.id for c in reader.connections if (c.topic, c.msgtype) == (picked.topic, picked.msgtype)}
         info_conns = _camera_info_topics(reader, picked.topic)
         imu_conns = [c for c in reader.connections if c.msgtype == "sensor_msgs/msg/Imu"]
-        if camera is None and not info_conns:
+        if lens is not None:
+            info_conns = []
+        if camera is None and lens is None and not info_conns:
             raise BagError("the bag has no sensor_msgs/CameraInfo; give the camera with --camera-info")
         info_ids, imu_ids = {c.id for c in info_conns}, {c.id for c in imu_conns}
         needed = image_ids | info_ids | imu_ids
-        if camera is None:
+        if camera is None and lens is None:
             camera = _first_camera(reader, info_conns)
-        _check_frame_size(reader, image_ids, camera, str(camera_file) if camera_file else "the bag's camera_info")
+        if camera is not None:
+            _check_frame_size(reader, image_ids, camera, str(camera_file) if camera_file else "the bag's camera_info")
         typestore = get_typestore(Stores.ROS2_JAZZY)
         copies: dict[int, Any] = {}
         if output is not None:
@@ -197,7 +202,7 @@ def replay(
             if copy_inputs:
                 copies = _input_copies(reader, writer, typestore, summary)
         calibrated = camera  # the detector's model may be scaled to the frames
-        detector = Detector(camera, detector_config)
+        detector = Detector(camera, detector_config, lens=lens)
         guidance = Guidance(guidance_config)
         attitude: Attitude | None = None
         messages = reader.messages(connections=[c for c in reader.connections if c.id in needed or c.id in copies])
@@ -243,7 +248,7 @@ def replay(
                 progress(summary.frames, total)
             try:
                 frame = _decode(msg, connection)
-                if detector.camera is None:
+                if detector.camera is None and detector.lens is None:
                     raise DockGuidanceError("no camera_info before the first frame")
                 note = detector.fit_camera(frame.shape[1], frame.shape[0])
                 if note is not None and note not in summary.notes:

@@ -9,6 +9,8 @@ import time
 from pathlib import Path
 
 from auv_dock_guidance.cli.common import (
+    add_approximate_arguments,
+    approximate_lens,
     domain_from_environment,
     domain_id,
     fail,
@@ -42,6 +44,7 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("bag", metavar="BAG")
     p.add_argument("--output", "-o", metavar="OUT", type=new_path, help="output bag folder (default BAG_replay)")
     p.add_argument("--camera-info", metavar="YAML", help="camera model when the bag has none (or to override it)")
+    add_approximate_arguments(p)
     p.add_argument("--image-topic", help="camera topic when the bag has several")
     p.add_argument("--no-inputs", action="store_true", help="write only the /replay/ topics")
     p.add_argument("--realtime", action="store_true", help="with --publish: keep the recorded timing")
@@ -71,7 +74,7 @@ def run_replay(args: argparse.Namespace) -> int:
     output = Path(args.output) if args.output else bag.with_name(bag.name + "_replay")
     try:
         summary = replay(bag, output, Path(args.camera_info) if args.camera_info else None, args.image_topic,
-                         copy_inputs=not args.no_inputs, progress=Progress("replay", 1))
+                         copy_inputs=not args.no_inputs, progress=Progress("replay", 1), lens=approximate_lens(args))
     except DockGuidanceError as exc:
         fail(str(exc), code=1)
     if not summary.processed and output.exists():

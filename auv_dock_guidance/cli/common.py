@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from auv_dock_guidance.errors import CameraModelError
-from auv_dock_guidance.geometry.camera import CameraModel, paper_camera
+from auv_dock_guidance.geometry.camera import ApproximateLens, CameraModel, paper_camera
 
 
 @dataclass(frozen=True)
@@ -111,12 +111,34 @@ def _check_creatable(path: Path, text: str) -> None:
             return
 
 
-def add_camera_argument(parser: argparse.ArgumentParser) -> None:
+def add_camera_argument(parser: argparse.ArgumentParser, approximate: bool = False) -> None:
+    """--camera-info; with ``approximate``, also --focal-px and --hfov for uncalibrated footage."""
     parser.add_argument(
         "--camera-info",
         metavar="YAML",
         help="camera_info YAML of the camera (default: the paper's Table 2 calibration)",
     )
+    if approximate:
+        add_approximate_arguments(parser)
+
+
+def add_approximate_arguments(parser: argparse.ArgumentParser) -> None:
+    """--focal-px and --hfov: an approximate camera for footage without a calibration."""
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--focal-px", type=positive_float, metavar="F",
+                       help="no calibration: focal length in pixels of these frames (principal point at the "
+                       "centre, no distortion); ranges are then approximate")
+    group.add_argument("--hfov", type=Number(float, low=1, high=170), metavar="DEG",
+                       help="no calibration: horizontal field of view in degrees, instead of --focal-px")
+
+
+def approximate_lens(args: argparse.Namespace) -> ApproximateLens | None:
+    """The approximate camera asked for with --focal-px or --hfov (not with --camera-info)."""
+    if getattr(args, "focal_px", None) is None and getattr(args, "hfov", None) is None:
+        return None
+    if args.camera_info is not None:
+        fail("--camera-info is a calibration: give it, or --focal-px/--hfov for an approximate camera, not both")
+    return ApproximateLens(focal_px=args.focal_px, hfov_deg=args.hfov)
 
 
 def load_camera(path: str | None) -> CameraModel:

@@ -8,6 +8,7 @@ from typing import Any
 
 from auv_dock_guidance.cli.common import (
     add_camera_argument,
+    approximate_lens,
     fail,
     load_camera,
     positive_float,
@@ -16,6 +17,8 @@ from auv_dock_guidance.cli.common import (
     seed,
     workers,
 )
+from auv_dock_guidance.cli.detect import add_marker_arguments
+from auv_dock_guidance.cli.labels import run_labels
 from auv_dock_guidance.cli.progress import Progress
 from auv_dock_guidance.sim.evaluate import (
     edge_comparison,
@@ -59,9 +62,16 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
                    help="beam attenuation of the water in the range sweep (default %(default)s /m: a clear pool)")
     p.add_argument("--brightness", type=positive_float, default=3.0,
                    help="LED radiance in the range sweep, in full-scale units (default %(default)s)")
+    p.add_argument("--labels", metavar="LABELS.json",
+                   help="instead of rendering: score detections on recorded frames against hand labels "
+                   "(format and scoring rule in README); the frames are IMAGES, or those the labels name")
+    p.add_argument("images", nargs="*", metavar="IMAGE",
+                   help="with --labels: the frames to score (default: the labelled frames, next to the labels "
+                   "file or in its frames/ folder)")
+    add_marker_arguments(p)
     p.add_argument("--workers", type=workers, default=os.cpu_count() or 1,
                    help="processes rendering in parallel (default: all cores)")
-    add_camera_argument(p)
+    add_camera_argument(p, approximate=True)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=run_evaluate)
 
@@ -79,6 +89,16 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_evaluate(args: argparse.Namespace) -> int:
+    if args.labels is not None:
+        return run_labels(args)
+    if args.images:
+        fail("images are scored only against labels: give --labels LABELS.json")
+    if approximate_lens(args) is not None:
+        fail("--focal-px and --hfov are for recorded frames (--labels); rendering needs a calibrated camera")
+    marker_given = args.led_count is not None or args.led_colour is not None
+    if marker_given or args.marker_radius != DetectorConfig.marker_radius_m:
+        fail("the rendered population draws its own markers: --marker-radius, --led-count and --led-colour "
+             "go with --labels")
     config = DetectorConfig()
     if args.population == "real-dock":
         for given, option in ((args.plain, "--plain"), (args.range_sweep, "--range-sweep"),

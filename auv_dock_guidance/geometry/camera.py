@@ -51,6 +51,7 @@ class CameraModel:
     k3: float = 0.0
     name: str = "camera"
     frame_id: str = "camera_optical_frame"
+    approximate: bool = False  # no calibration: focal length guessed, principal point at the centre
 
     def __post_init__(self) -> None:
         for field_name in ("width", "height"):
@@ -186,6 +187,8 @@ class CameraModel:
         """
         if (width, height) == (self.width, self.height):
             return self
+        if self.approximate:  # nothing was calibrated at this size: keep the field of view
+            return approximate_camera(width, height, focal_px=self.fx * width / self.width)
         factor = width / self.width
         if width <= 0 or height <= 0 or abs(self.height * factor - height) > 1.0:
             raise CameraModelError(
@@ -412,6 +415,39 @@ def _matrix_data(data: dict[str, Any], key: str, path: Path) -> list[float]:
     if not all(math.isfinite(v) for v in floats):
         raise CameraModelError(f"{path}: {key}.data holds NaN or infinity")
     return floats
+
+
+@dataclass(frozen=True)
+class ApproximateLens:
+    """What a user knows of an uncalibrated camera: its focal length in pixels of the frames
+    it recorded, or its horizontal field of view. The frames' size completes the camera."""
+
+    focal_px: float | None = None
+    hfov_deg: float | None = None
+
+    def __post_init__(self) -> None:
+        if (self.focal_px is None) == (self.hfov_deg is None):
+            raise CameraModelError("an approximate camera needs either a focal length or a field of view")
+        if self.focal_px is not None and not (math.isfinite(self.focal_px) and self.focal_px > 0):
+            raise CameraModelError(f"focal length {self.focal_px} px must be a positive number")
+        if self.hfov_deg is not None and not (math.isfinite(self.hfov_deg) and 1.0 <= self.hfov_deg <= 170.0):
+            raise CameraModelError(f"horizontal field of view {self.hfov_deg} deg must be from 1 to 170")
+
+    def camera_for(self, width: int, height: int) -> CameraModel:
+        return approximate_camera(width, height, self.focal_px, self.hfov_deg)
+
+
+def approximate_camera(width: int, height: int, focal_px: float | None = None,
+                       hfov_deg: float | None = None) -> CameraModel:
+    """A camera without calibration (``approximate``): square pixels of focal length ``focal_px``,
+    or the one that gives ``hfov_deg`` across the width; principal point at the centre; no
+    distortion. Bearings are about right near the centre; ranges scale with the focal length."""
+    if hfov_deg is not None:
+        focal_px = 0.5 * width / math.tan(math.radians(hfov_deg) / 2.0)
+    if focal_px is None:
+        raise CameraModelError("an approximate camera needs either a focal length or a field of view")
+    return CameraModel(width=width, height=height, fx=focal_px, fy=focal_px, cx=(width - 1) / 2.0,
+                       cy=(height - 1) / 2.0, name="approximate", approximate=True)
 
 
 PAPER_FOCAL_PX = 1734.9  # paper_camera().focal_px: the lens the pixel sizes of our defaults are for

@@ -38,8 +38,8 @@ from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 from std_msgs.msg import Bool, Header
 from visualization_msgs.msg import Marker
 
-from auv_dock_guidance.errors import DockGuidanceError
-from auv_dock_guidance.geometry.camera import CameraModel
+from auv_dock_guidance.errors import ConfigError, DockGuidanceError
+from auv_dock_guidance.geometry.camera import ApproximateLens, CameraModel
 from auv_dock_guidance.geometry.pose import MarkerPose
 from auv_dock_guidance.geometry.uncertainty import dock_pose, observation_of
 from auv_dock_guidance.nodes.common import (
@@ -61,12 +61,21 @@ from auv_dock_guidance.nodes.conversions import (
 )
 from auv_dock_guidance.stamps import StampGate
 from auv_dock_guidance.vision.detector import Detection, Detector, DetectorConfig
+from auv_dock_guidance.vision.marker import colour_bgr
 from auv_dock_guidance.vision.overlay import overlay_jpeg, overlay_text
 from auv_dock_guidance.vision.selection import SelectionConfig
 from auv_dock_guidance.vision.threshold import ThresholdConfig
 
 PARAMS = [
     Param("marker_radius_m", 0.35, "radius of the LED ring's centre line (m)", 0.01, 5.0),
+    Param("marker_led_count", -1, "LEDs on the ring: 0 a continuous strip, -1 not known (found from the frames)",
+          -1, 360),
+    Param("marker_colour", "", "colour of the LEDs: #RRGGBB or blue, green, red, white, cyan, yellow, magenta; "
+          "empty: any colour"),
+    Param("approximate_focal_px", 0.0, "no calibration: focal length in pixels (principal point at the centre, "
+          "no distortion; ranges approximate); 0: off", 0.0, 100000.0, read_only=True),
+    Param("approximate_hfov_deg", 0.0, "no calibration: horizontal field of view instead; 0: off", 0.0, 170.0,
+          read_only=True),
     Param("max_range_m", 40.0, "rings that look smaller than at this range are rejected (m)", 1.0, 200.0),
     Param("camera_info_file", "", "camera_info YAML; empty: use the camera_info topic"),
     Param("reliable", True, "reliable image QoS (with the shared-memory profile) instead of best effort",
@@ -93,8 +102,11 @@ def detector_config(values: dict[str, Any]) -> DetectorConfig:
     threshold = ThresholdConfig(
         **{k.split(".", 1)[1]: float(v) for k, v in values.items() if k.startswith("threshold.")})
     selection = SelectionConfig(tie_ratio=float(values["selection.tie_ratio"]))
+    count = int(values["marker_led_count"])
     return DetectorConfig(
         marker_radius_m=float(values["marker_radius_m"]),
+        led_count=None if count < 0 else count,
+        led_bgr=colour_bgr(str(values["marker_colour"])) if values["marker_colour"] else None,
         max_range_m=float(values["max_range_m"]),
         tracking=bool(values["tracking"]),
         track_window_radii=float(values["track_window_radii"]),
@@ -102,6 +114,16 @@ def detector_config(values: dict[str, Any]) -> DetectorConfig:
         threshold=threshold,
         selection=selection,
     )
+
+
+def approximate(values: dict[str, Any]) -> ApproximateLens | None:
+    """The approximate camera the parameters ask for (None: use camera_info)."""
+    focal, hfov = float(values["approximate_focal_px"]), float(values["approximate_hfov_deg"])
+    if focal <= 0 and hfov <= 0:
+        return None
+    if focal > 0 and hfov > 0:
+        raise ConfigError("approximate_focal_px and approximate_hfov_deg: give one, not both")
+    return ApproximateLens(focal_px=focal if focal > 0 else None, hfov_deg=hfov if hfov > 0 else None)
 
 
 @dataclass(frozen=True)
@@ -141,7 +163,7 @@ class DetectorNode(Node):
         self.config = detector_config(self.values)
         camera = CameraModel.from_yaml(self.values["camera_info_file"]) if self.values["camera_info_file"] else None
         self._calibrated = camera  # as calibrated; the detector's may be scaled to the frames
-        self.detector = Detector(camera, self.config)
+        self.detector = Detector(camera, self.config, lens=approximate(self.values))
         on_parameter_change(self, self._apply_parameters)
         reliability = ReliabilityPolicy.RELIABLE if self.values["reliable"] else ReliabilityPolicy.BEST_EFFORT
         newest_only = QoSProfile(depth=1, history=HistoryPolicy.KEEP_LAST, reliability=reliability)
@@ -184,7 +206,7 @@ class DetectorNode(Node):
         return None
 
     def _on_camera_info(self, msg: CameraInfo) -> None:
-        if self.values["camera_info_file"]:
+        if self.values["camera_info_file"] or self.detector.lens is not None:
             return
         try:
             camera = info_to_camera(msg)
@@ -227,7 +249,7 @@ class DetectorNode(Node):
             self._skips.append((time.monotonic(), sequence - last - 1))
 
     def _process(self, frame: Frame) -> None:
-        if self.detector.camera is None:
+        if self.detector.camera is None and self.detector.lens is None:
             if not self._warned_no_camera:
                 self._warned_no_camera = True
                 self.get_logger().warn("no camera model yet (camera_info topic or camera_info_file): frames skipped")
@@ -249,7 +271,9 @@ class DetectorNode(Node):
         elapsed = time.perf_counter() - start
         self.detected_pub.publish(Bool(data=detection.found))
         pose = detection.pose
-        header = Header(stamp=frame.stamp, frame_id=frame.frame_id or self.detector.camera.frame_id)
+        camera = self.detector.camera
+        assert camera is not None  # a frame is processed with a camera model (calibrated or approximate)
+        header = Header(stamp=frame.stamp, frame_id=frame.frame_id or camera.frame_id)
         if detection.found and pose is not None:
             self._publish_position(header, pose)
             self._publish_dock_pose(header, detection)

@@ -17,6 +17,8 @@ class DetectorConfig:
     """Detector settings; every field is documented in README.md (Detector parameters)."""
 
     marker_radius_m: float = 0.35  # radius of the LED ring's centre line
+    led_count: int | None = None  # LEDs on the ring; 0: a continuous strip; None: not known
+    led_bgr: tuple[float, float, float] | None = None  # the LEDs' colour (blue, green, red in 0-1), if known
     max_range_m: float = 40.0  # smaller apparent rings are glints or distant lamps
     search_scale: float = 0.25  # size of the search copy
     search_background_px: int = 31  # opening width on the search copy (wider than the strip)
@@ -37,6 +39,11 @@ class DetectorConfig:
     def __post_init__(self) -> None:
         if not (self.marker_radius_m > 0 and math.isfinite(self.marker_radius_m)):
             raise ConfigError(f"marker_radius_m {self.marker_radius_m} must be a positive number")
+        if self.led_count is not None and not (self.led_count == 0 or 4 <= self.led_count <= 360):
+            raise ConfigError(f"led_count {self.led_count} must be 0 (a continuous strip) or from 4 to 360")
+        if self.led_bgr is not None and (len(self.led_bgr) != 3 or not all(0.0 <= c <= 1.0 for c in self.led_bgr)
+                                         or max(self.led_bgr) <= 0.0):
+            raise ConfigError(f"led colour {self.led_bgr} must be three shares from 0 to 1 (blue, green, red)")
         if not self.max_range_m > 0:
             raise ConfigError(f"max_range_m {self.max_range_m} must be positive")
         if not 0.05 <= self.search_scale <= 1.0:

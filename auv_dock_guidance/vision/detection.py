@@ -28,3 +28,7 @@ class Detection:
     ring_normal: tuple[float, float, float] | None = None  # dock axis (optical frame), tilt-aware fit
     fit_sigma: float = math.nan  # standard error of the fitted centre, each coordinate (normalized units)
     visible_arc_deg: float = 360.0  # how much of the ring's circle the fit saw (less where the frame cuts it)
+    range_approximate: bool = False  # uncalibrated camera: range and offsets scale with a guessed focal length
+    leds: tuple[tuple[float, float], ...] = ()  # centroids of the ring's LEDs (pixels), when assembled from them
+    led_count: int = 0  # N of the ring they were assembled into (0: not from LEDs)
+    partial: bool = False  # less than half the ring in view (a corner): a bearing more than a position

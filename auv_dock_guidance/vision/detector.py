@@ -15,30 +15,36 @@ A short orchestrator over the stages, each a module of its own:
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
 from auv_dock_guidance.errors import ConfigError
-from auv_dock_guidance.geometry.camera import CameraModel
+from auv_dock_guidance.geometry.camera import ApproximateLens, CameraModel
 from auv_dock_guidance.vision.config import DetectorConfig, lens_scale, min_ring_radius_px
 from auv_dock_guidance.vision.detection import Detection
 from auv_dock_guidance.vision.edges import BilateralParams
 from auv_dock_guidance.vision.fit import fit_region
 from auv_dock_guidance.vision.image_input import as_bgr_or_gray8
+from auv_dock_guidance.vision.led_fit import LedRingCandidate, find_led_rings, led_detection
 from auv_dock_guidance.vision.refine import Refiner, Region, add_region
-from auv_dock_guidance.vision.search import Window, search
+from auv_dock_guidance.vision.search import Window, picture_area, search, search_copy
 from auv_dock_guidance.vision.selection import choose
 from auv_dock_guidance.vision.threshold import AdaptiveThreshold
 from auv_dock_guidance.vision.tracking import UNSTAMPED_FRAME_S, WindowTracker
 
 __all__ = ["Detection", "Detector", "DetectorConfig", "PaperBaseline"]
 
+_RESOLVED_SPACING_PX = 4.0  # LEDs closer than this on the search copy cannot be told apart
+
 
 class Detector:
     """Stateful across the frames of one sequence (the adaptive threshold); call reset() between."""
 
-    def __init__(self, camera: CameraModel | None = None, config: DetectorConfig = DetectorConfig()) -> None:
+    def __init__(self, camera: CameraModel | None = None, config: DetectorConfig = DetectorConfig(),
+                 lens: ApproximateLens | None = None) -> None:
         self.camera = camera
+        self.lens = lens  # without a calibration: the camera is made from it and the first frame's size
         self.config = config
         self.threshold = AdaptiveThreshold(config.threshold)
         self._last: Detection | None = None  # the previous frame's marker
@@ -65,17 +71,24 @@ class Detector:
             if not detection.found:
                 detection = None  # lost: search the whole frame
         if detection is None:
-            detection = self._detect_in(image, search(image, self.config, self._lens_scale, self._min_radius_px))
+            copy = search_copy(image, self.config, self._lens_scale)
+            windows = search(image, self.config, self._lens_scale, self._min_radius_px, copy)
+            detection = self._detect_in(image, windows, self._led_rings(image, copy))
         self._remember(detection, time_s)
         return detection
 
     def fit_camera(self, width: int, height: int) -> str | None:
         """Follow images that are a uniform resize of the camera model (binned, scaled down
-        for recording); returns what changed, for the caller to say once, or None.
+        for recording), or make the approximate camera for them; returns what changed, for
+        the caller to say once, or None.
 
         Raises CameraModelError when the size cannot come from this camera.
         """
         camera = self.camera
+        if camera is None and self.lens is not None:
+            self.camera = made = self.lens.camera_for(width, height)
+            return (f"no calibration: approximate camera for {width}x{height} frames, focal length "
+                    f"{made.fx:.0f} px, principal point at the centre, no distortion; ranges are approximate")
         if camera is None or (width, height) == (camera.width, camera.height):
             return None
         self.camera = camera.for_image(width, height)
@@ -97,6 +110,17 @@ class Detector:
     def _min_radius_px(self) -> float:
         return min_ring_radius_px(self.config, self.camera)
 
+    def _leds_merge(self, radius_px: float) -> bool:
+        """Whether a ring of this radius can be read as an outline: always for a strip or an unknown
+        LED count; for N known LEDs only while they come closer than a few pixels of the search
+        copy (where no LED can be told from the next), since farther apart they would have been
+        assembled as LEDs, and an outline there is one light's glow, a fixture or a reflection."""
+        count = self.config.led_count
+        if not count:
+            return True
+        copy_scale = min(1.0, self.config.search_scale / self._lens_scale)
+        return 2.0 * math.pi * radius_px * copy_scale / count < _RESOLVED_SPACING_PX
+
     def _checked(self, image: np.ndarray) -> np.ndarray:
         image = as_bgr_or_gray8(image)
         if self.camera is not None and image.shape[:2] != (self.camera.height, self.camera.width):
@@ -106,19 +130,42 @@ class Detector:
             )
         return image
 
-    def _detect_in(self, image: np.ndarray, windows: list[Window]) -> Detection:
-        """Refine each window, choose among what passed the gates (paper Fig. 5), fit the choice."""
-        refiner = Refiner(self.config, self.threshold, self.camera)
+    def _led_rings(self, image: np.ndarray, copy: tuple[np.ndarray, float]) -> list[LedRingCandidate]:
+        """Rings of evenly spaced LEDs in the frame, unless the marker is a continuous strip."""
+        if self.config.led_count == 0:
+            return []
+        rings = find_led_rings(image, copy, self.camera, self.config, picture_area(*copy))
+        return [r for r in rings if r.shape.radius_px >= max(self.config.selection.min_radius_px, self._min_radius_px)]
+
+    def _detect_in(self, image: np.ndarray, windows: list[Window],
+                   led_rings: list[LedRingCandidate] | None = None) -> Detection:
+        """Refine each window, choose among what passed the gates (paper Fig. 5), fit the choice.
+
+        Rings assembled from evenly spaced LEDs are candidates too (of those, the ones with
+        about as many LEDs as the best). With the LED count known they are the marker's
+        evidence and outlines count only where the LEDs merge (`_leds_merge`); without it they
+        compete with the outlines under the paper's rule (largest, lowest on ties).
+        """
+        rings = led_rings or []
+        if rings:
+            most = max(len(r.ring.members) for r in rings)
+            rings = [r for r in rings if len(r.ring.members) >= 0.75 * most]
         regions: list[Region] = []
         rejected: list[str] = []
-        for box, radius_estimate in windows:
-            for region in refiner.refine(image, box, radius_estimate, rejected):
-                add_region(regions, region, self.config)
-        best = choose([r.shape for r in regions], self.config.selection)
+        if not (rings and self.config.led_count):
+            refiner = Refiner(self.config, self.threshold, self.camera)
+            for box, radius_estimate in windows:
+                for region in refiner.refine(image, box, radius_estimate, rejected):
+                    add_region(regions, region, self.config)
+            regions = [r for r in regions if self._leds_merge(r.shape.radius_px)]
+        shapes = [r.shape for r in rings] + [r.shape for r in regions]
+        best = choose(shapes, self.config.selection)
         if best is None:
             reason = "no bright region" if not windows else "rejected: " + "; ".join(sorted(set(rejected))[:3])
             return Detection(found=False, reason=reason)
-        return fit_region(regions[best], len(regions), image.shape[:2], self.camera, self.config)
+        if best < len(rings):
+            return led_detection(rings[best], len(shapes), self.camera, self.config)
+        return fit_region(regions[best - len(rings)], len(shapes), image.shape[:2], self.camera, self.config)
 
 
 class PaperBaseline(Detector):

@@ -34,6 +34,7 @@ def fit_region(region: Region, candidates: int, frame_size: tuple[int, int], cam
     common: dict[str, Any] = dict(
         found=True, threshold=region.threshold, candidates=candidates,
         mec_u=float(mu), mec_v=float(mv), mec_radius_px=float(mr),
+        range_approximate=camera is not None and camera.approximate,
     )
     cut = bool(on_border(region.outer, frame_size).any())
     if cut and region.led_centers is not None:  # LED centres lie on the ring itself

@@ -24,7 +24,29 @@ Window = tuple[Box, float]  # a box to refine and the radius the ring is expecte
 Extent = tuple[float, float, float, float]  # x0, y0, x1, y1 of a region, full-resolution px
 
 
-def search(image: np.ndarray, config: DetectorConfig, lens_scale: float, min_radius_px: float) -> list[Window]:
+def search_copy(image: np.ndarray, config: DetectorConfig, lens_scale: float) -> tuple[np.ndarray, float]:
+    """The small copy the search works on, and its scale: the ring keeps its size in it,
+    whatever the lens."""
+    s = min(1.0, config.search_scale / lens_scale)
+    return (image if s == 1.0 else cv2.resize(image, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)), s
+
+
+def picture_area(small: np.ndarray, scale: float, black: float = 16.0) -> Box:
+    """The part of the frame with a picture in it (full-resolution box): video capture often
+    leaves black columns or rows at the sides, and a ring cut there is cut by them."""
+    gray = intensity(small)
+    columns = cv2.reduce(gray, 0, cv2.REDUCE_MAX).ravel() > black
+    rows = cv2.reduce(gray, 1, cv2.REDUCE_MAX).ravel() > black
+    if not columns.any() or not rows.any():
+        return 0, 0, int(round(small.shape[1] / scale)), int(round(small.shape[0] / scale))
+    x0, x1 = int(np.argmax(columns)), len(columns) - int(np.argmax(columns[::-1]))
+    y0, y1 = int(np.argmax(rows)), len(rows) - int(np.argmax(rows[::-1]))
+    return (int(math.floor(x0 / scale)), int(math.floor(y0 / scale)),
+            int(math.ceil(x1 / scale)), int(math.ceil(y1 / scale)))
+
+
+def search(image: np.ndarray, config: DetectorConfig, lens_scale: float, min_radius_px: float,
+           copy: tuple[np.ndarray, float] | None = None) -> list[Window]:
     """Bright regions on a small copy: (full-resolution box, radius estimate) each.
 
     Regions are grouped at several gap widths, so the separate LEDs of a ring come out
@@ -33,12 +55,11 @@ def search(image: np.ndarray, config: DetectorConfig, lens_scale: float, min_rad
     in view, where the LEDs come apart from dimmer light they touch (a web of caustics,
     glow on structure) that would otherwise make one region of the whole frame.
     ``lens_scale`` is the focal length relative to the paper's camera; ``min_radius_px``
-    the smallest ring accepted (full resolution).
+    the smallest ring accepted (full resolution); ``copy`` the search copy when made already.
     """
     c = config
     lens = lens_scale
-    s = min(1.0, c.search_scale / lens)  # the ring keeps its size in the search copy, whatever the lens
-    small = image if s == 1.0 else cv2.resize(image, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
+    small, s = copy if copy is not None else search_copy(image, config, lens_scale)
     gray = intensity(small)
     k = c.search_background_px | 1
     kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (k, k))

@@ -166,3 +166,24 @@ def test_a_lens_folding_over_a_third_of_the_image_is_warned_about(camera):
     assert plausibility_warnings(strong) == [
         "distortion k1 -0.9, k2 0, p1 0, p2 0, k3 0 has no valid undistortion over 37 % of the image (more than 25 %)"
     ]
+
+
+def test_an_approximate_camera_has_its_principal_point_at_the_centre_and_no_distortion():
+    from auv_dock_guidance.geometry.camera import ApproximateLens, approximate_camera
+
+    camera = approximate_camera(720, 576, focal_px=650.0)
+    assert camera.approximate and (camera.cx, camera.cy) == (359.5, 287.5)
+    assert camera.distortion == (0.0, 0.0, 0.0, 0.0, 0.0) and camera.fx == camera.fy == 650.0
+    wide = ApproximateLens(hfov_deg=90.0).camera_for(1280, 720)
+    assert wide.fx == pytest.approx(640.0)
+    half = camera.for_image(360, 300)  # another size: the same field of view across the width
+    assert half.approximate and half.fx == pytest.approx(325.0) and half.cy == pytest.approx(149.5)
+
+
+@pytest.mark.parametrize("kwargs, message", [({}, "either"), ({"focal_px": 5.0, "hfov_deg": 60.0}, "either"),
+                                             ({"focal_px": -1.0}, "positive"), ({"hfov_deg": 200.0}, "1 to 170")])
+def test_an_approximate_lens_needs_one_sensible_number(kwargs, message):
+    from auv_dock_guidance.geometry.camera import ApproximateLens
+
+    with pytest.raises(CameraModelError, match=message):
+        ApproximateLens(**kwargs)

@@ -1,0 +1,170 @@
+"""Rings of separate LEDs from their centroids, and the dock's pose from them.
+
+The lights (`leds.py`) are refined to full-resolution centroids, undistorted, and
+assembled into rings (`led_ring.py`) on the undistorted plane. The pose of a ring of
+known radius whose LEDs sit at known slots is a planar pose problem: from four LEDs on,
+OpenCV's IPPE solves it exactly in perspective (the two planar solutions; the one that
+reprojects better is taken), which puts the centre where the ring's centre is, not where
+the visible part's middle is, however much of the ring the frame cuts. Three LEDs (a
+corner) give the affine ring through them: a bearing towards the centre and a rough
+range, marked partial.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+
+from auv_dock_guidance.geometry.camera import CameraModel
+from auv_dock_guidance.geometry.pose import Ellipse, pose_from_circle, pose_from_point
+from auv_dock_guidance.vision.config import DetectorConfig
+from auv_dock_guidance.vision.detection import Detection
+from auv_dock_guidance.vision.led_ring import LedRing, assemble_rings
+from auv_dock_guidance.vision.leds import LedBlob, find_leds, refined
+from auv_dock_guidance.vision.search import Box
+from auv_dock_guidance.vision.selection import CandidateShape
+
+
+@dataclass(frozen=True)
+class LedRingCandidate:
+    """One assembled ring: its LEDs in image pixels and on the normalized plane."""
+
+    ring: LedRing  # fitted on the normalized plane scaled by the focal length
+    leds_px: np.ndarray  # (M, 2) the members' centroids, distorted image pixels
+    leds_xy: np.ndarray  # (M, 2) the same on the normalized plane
+    shape: CandidateShape  # for the choice among candidates (largest, lowest on ties)
+
+
+def find_led_rings(image: np.ndarray, copy: tuple[np.ndarray, float], camera: CameraModel | None,
+                   config: DetectorConfig, area: Box) -> list[LedRingCandidate]:
+    """Rings of evenly spaced lights in the frame (``area``: the part with a picture)."""
+    small, scale = copy
+    blobs = [refined(image, b) for b in find_leds(small, scale, config.search_background_px)]
+    if config.led_bgr is not None:
+        blobs = [b for b in blobs if halo_matches(image, b, config.led_bgr)]
+    if len(blobs) < 3:
+        return []
+    pixels = np.array([(b.u, b.v) for b in blobs])
+    focal = camera.focal_px if camera is not None else 1.0
+    if camera is not None:
+        xy, valid = camera.pixels_to_normalized(pixels)
+        blobs = [b for b, ok in zip(blobs, valid, strict=True) if ok]
+        pixels, xy = pixels[valid], xy[valid]
+    else:
+        xy = pixels.astype(np.float64)
+    if len(blobs) < 3:
+        return []
+    margin = float(np.median([b.radius_px for b in blobs]))
+    x0, y0, x1, y1 = area
+
+    def in_view(plane: np.ndarray) -> np.ndarray:
+        """Whether a point on the fitting plane shows in the picture (an LED's size clear of its edge)."""
+        px = plane if camera is None else camera.normalized_to_pixels(plane / focal)
+        return ((px[:, 0] >= x0 + margin) & (px[:, 0] <= x1 - 1 - margin)
+                & (px[:, 1] >= y0 + margin) & (px[:, 1] <= y1 - 1 - margin))
+
+    rings = assemble_rings(xy * focal, blobs, in_view, config.led_count)
+    return [_candidate(ring, blobs, pixels, xy) for ring in rings]
+
+
+def halo_matches(image: np.ndarray, blob: LedBlob, bgr: tuple[float, float, float],
+                 min_cosine: float = 0.85) -> bool:
+    """Whether the glow around a blob (2-5 of its radii out, over the water beyond) has the LEDs'
+    colour: the direction of the excess light in colour space, whatever its strength. Close to
+    the core every channel saturates; the glow further out keeps the LED's colour, while light
+    from a white funnel or a lamp of another colour points elsewhere."""
+    if image.ndim == 2:
+        return True
+    h, w = image.shape[:2]
+    r = max(2.0, blob.radius_px)
+    x0, x1 = max(0, int(blob.u - 8 * r)), min(w, int(blob.u + 8 * r) + 1)
+    y0, y1 = max(0, int(blob.v - 8 * r)), min(h, int(blob.v + 8 * r) + 1)
+    patch = image[y0:y1, x0:x1].astype(np.float32)
+    yy, xx = np.mgrid[y0:y1, x0:x1]
+    distance = np.hypot(xx - blob.u, yy - blob.v)
+    glow, water = (distance >= 2 * r) & (distance < 5 * r), distance >= 6 * r
+    if not glow.any() or not water.any():
+        return True
+    excess = np.median(patch[glow], axis=0) - np.median(patch[water], axis=0)
+    norm = float(np.linalg.norm(excess)) * float(np.linalg.norm(bgr))
+    return norm > 0 and float(excess @ np.array(bgr, np.float32)) / norm >= min_cosine
+
+
+def _candidate(ring: LedRing, blobs: list[LedBlob], pixels: np.ndarray, xy: np.ndarray) -> LedRingCandidate:
+    members = list(ring.members)
+    major, minor = ring.semi_axes()
+    shape = CandidateShape(
+        area_px=math.pi * major * minor, center_v=float(np.mean(pixels[members, 1])),
+        radius_px=major, axis_ratio=minor / max(major, 1e-9), hole_fraction=1.0, edge_support=1.0,
+        contrast=float(np.mean([blobs[m].peak for m in members])), ellipse_residual=ring.residual,
+        arc_deg=360.0 * min(1.0, ring.expected / ring.count),
+    )
+    return LedRingCandidate(ring, pixels[members], xy[members], shape)
+
+
+def led_detection(candidate: LedRingCandidate, candidates: int, camera: CameraModel | None,
+                  config: DetectorConfig) -> Detection:
+    """The Detection of an assembled LED ring: its centre, range and bearing."""
+    ring = candidate.ring
+    radius_m = config.marker_radius_m
+    slots = np.array(ring.slots)
+    (mu, mv), mr = cv2.minEnclosingCircle(candidate.leds_px.astype(np.float32))
+    ellipse = _affine_ellipse(candidate.leds_xy, slots, ring.count)
+    common: dict[str, Any] = dict(
+        found=True, candidates=candidates, is_ring=True, mec_u=float(mu), mec_v=float(mv),
+        mec_radius_px=float(mr), ellipse=ellipse, leds=tuple((float(u), float(v)) for u, v in candidate.leds_px),
+        led_count=ring.count, partial=2 * ring.expected < ring.count,
+        visible_arc_deg=360.0 * min(1.0, ring.expected / ring.count),
+        range_approximate=camera is not None and camera.approximate,
+        fit_sigma=ring.residual * 2.0 * math.sin(math.pi / ring.count) * ellipse.semi_major
+        / math.sqrt(max(1, len(slots) - 3)),
+    )
+    focal = camera.focal_px if camera is not None else 1.0
+    solved = _planar_pose(candidate.leds_xy, slots, ring.count, radius_m) if len(slots) >= 4 else None
+    if solved is None:  # a corner of three LEDs: the affine ring through them
+        pose = pose_from_circle((ellipse.center_x, ellipse.center_y), ellipse.semi_major, radius_m)
+        normal = None
+    else:
+        pose = pose_from_point(solved[0])
+        normal = (float(solved[1][0]), float(solved[1][1]), float(solved[1][2]))
+    x, y = pose.offset_x_m / pose.range_m, pose.offset_y_m / pose.range_m
+    if camera is not None:
+        u, v = (float(c) for c in camera.normalized_to_pixels(np.array([x, y])))
+    else:
+        u, v = x, y
+    return Detection(u=u, v=v, radius_px=radius_m / pose.range_m * focal, pose=pose, ring_normal=normal,
+                     **common)
+
+
+def _affine_ellipse(xy: np.ndarray, slots: np.ndarray, count: int) -> Ellipse:
+    """The ellipse c + a cos t + b sin t through the LEDs at their slots (least squares)."""
+    angle = 2.0 * np.pi * slots / count
+    design = np.column_stack([np.ones(len(slots)), np.cos(angle), np.sin(angle)])
+    (center, a, b), *_ = np.linalg.lstsq(design, xy, rcond=None)
+    u, singular, _ = np.linalg.svd(np.column_stack([a, b]))
+    return Ellipse(float(center[0]), float(center[1]), float(singular[0]), float(max(singular[1], 1e-12)),
+                   math.atan2(u[1, 0], u[0, 0]))
+
+
+def _planar_pose(xy: np.ndarray, slots: np.ndarray, count: int,
+                 radius_m: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """Centre (m) and axis (towards the camera) of the ring whose LED ``slots`` image at ``xy``."""
+    angle = 2.0 * np.pi * slots / count
+    ring = np.column_stack([radius_m * np.cos(angle), radius_m * np.sin(angle), np.zeros(len(slots))])
+    try:
+        solutions, rotations, translations, errors = cv2.solvePnPGeneric(
+            ring, xy.astype(np.float64), np.eye(3), None, flags=cv2.SOLVEPNP_IPPE)
+    except cv2.error:
+        return None
+    if not solutions:
+        return None
+    best = int(np.argmin(np.ravel(errors))) if errors is not None else 0
+    center = np.ravel(translations[best]).astype(float)
+    normal = cv2.Rodrigues(rotations[best])[0][:, 2]
+    if center[2] <= 0 or not np.all(np.isfinite(center)):
+        return None
+    return center, (-normal if normal[2] > 0 else normal)

@@ -1,0 +1,332 @@
+"""Ring assembly from LED centroids: lights evenly spaced on an ellipse.
+
+A ring of N LEDs seen from any angle is, to first order, an affine image of a circle:
+the LED of slot s lies at ``c + a cos(s d) + b sin(s d)`` with ``d = 2 pi / N``, where c
+is the image of the ring's centre and a, b are two conjugate half-diameters. Three
+neighbouring LEDs (slots -1, 0, 1) fix c, a and b exactly, so every triple of
+neighbouring lights predicts where all the ring's other LEDs must be, the centre
+included even when it lies outside the frame. A hypothesis counts the lights found
+where it predicts them (within a share of the LED spacing) among the slots that fall
+inside the frame, and is refitted by least squares on all of them. It is a ring when
+enough of the expected LEDs are there: single lights and pairs make no triple, and a
+fixture, a caustic loop or the funnel's corners do not put lights at N even steps.
+
+With the LED count unknown, each triple's own curvature suggests the step, and the
+counts around it are tried; an unknown count needs more LEDs in view to be believed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from auv_dock_guidance.vision.leds import LedBlob
+
+MIN_LEDS_KNOWN_COUNT = 3  # a corner: three neighbouring LEDs of a ring of known count
+MIN_LEDS_UNKNOWN_COUNT = 5  # without the count, fewer could be any three lights in a curve
+MIN_OCCUPANCY = 0.75  # share of the LEDs expected in view that must be found (some may be dead or hidden)
+MATCH_TOLERANCE = 0.3  # of the local LED spacing: how far a light may be from where three LEDs predict it
+FIT_TOLERANCE = 0.15  # the same, from the model fitted to all the ring's LEDs
+MAX_RESIDUAL = 0.1  # rms distance of the LEDs from the fitted model / LED spacing: centroid scatter only
+MAX_COUNT_UNKNOWN = 32  # beyond this many LEDs they merge into a strip; the outline path takes them
+SEED_LIGHTS = 16  # the strongest lights that seed hypotheses (all of them can confirm one)
+MAX_SPACING_SIZES = 30.0  # LEDs further apart than this many of their radii: specks that happen to line up
+ALIKE = 2.5  # the LEDs of one ring are alike: size and brightness within this factor of their median
+REFITS = 12  # hypotheses refitted per LED count, those the most lights confirm
+InView = Callable[[np.ndarray], np.ndarray]  # (M, 2) positions -> (M,) inside the frame
+_MIN_TURN_DEG, _MAX_TURN_DEG = 8.0, 90.0  # the ring's turn at each LED: 360/N, bent by tilt
+
+
+@dataclass(frozen=True)
+class LedRing:
+    """LEDs of one ring: which lights, at which slots of the N, and the affine model through them."""
+
+    members: tuple[int, ...]  # indices into the blobs
+    slots: tuple[int, ...]  # slot of each member, 0..count-1
+    count: int  # N
+    center: tuple[float, float]  # c: the image of the ring's centre (the plane the blobs were given on)
+    axis_a: tuple[float, float]  # a, b: conjugate half-diameters
+    axis_b: tuple[float, float]
+    expected: int  # slots whose LED falls inside the frame
+    residual: float  # rms distance of the members from their slots / mean LED spacing
+    light: float = 0.0  # the members' peaks added up
+
+    @property
+    def occupancy(self) -> float:
+        return len(self.members) / max(1, self.expected)
+
+    @property
+    def whole(self) -> bool:
+        """Every slot lies in view."""
+        return self.expected >= self.count
+
+    def slot_positions(self) -> np.ndarray:
+        return _positions(np.array(self.center), np.array(self.axis_a), np.array(self.axis_b), self.count)
+
+    def semi_axes(self) -> tuple[float, float]:
+        """Semi-major and semi-minor axes of the ellipse spanned by a and b."""
+        m = np.column_stack([self.axis_a, self.axis_b])
+        singular = np.linalg.svd(m, compute_uv=False)
+        return float(singular[0]), float(singular[1])
+
+
+def assemble_rings(points: np.ndarray, blobs: list[LedBlob], in_view: InView | None,
+                   led_count: int | None, max_rings: int = 3) -> list[LedRing]:
+    """Rings of evenly spaced lights among the blobs, best first, each light in one ring at most.
+
+    ``points`` are the blobs' centres (N, 2) on the plane to fit on (undistorted pixels);
+    ``in_view(xy)`` tells which predicted positions lie inside the frame (None: all do).
+    ``led_count``: N when the user gave it; None when unknown.
+    """
+    free = np.ones(len(blobs), bool)
+    rings: list[LedRing] = []
+    while len(rings) < max_rings:
+        ring = _best_ring(points, blobs, free, in_view, led_count)
+        if ring is None:
+            break
+        rings.append(ring)
+        free[list(ring.members)] = False
+    return rings
+
+
+def _best_ring(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, in_view: InView | None,
+               led_count: int | None) -> LedRing | None:
+    triples = _triples(points, blobs, free)
+    if not len(triples):
+        return None
+    if led_count:
+        by_count = {led_count: triples}
+    else:
+        low, high = _counts_to_try(points, triples)
+        by_count = {n: triples[(low <= n) & (n <= high)] for n in range(int(low.min()), int(high.max()) + 1)}
+    best: LedRing | None = None
+    for count, group in by_count.items():
+        if not len(group):
+            continue
+        for ring in _hypotheses(points, blobs, free, group, count, in_view, led_count is not None):
+            if best is None or _better(ring, best):
+                best = ring
+    return best
+
+
+def _better(a: LedRing, b: LedRing) -> bool:
+    """More LEDs, then more light: a ring of lights beats a ring of what they light."""
+    return (len(a.members), a.light) > (len(b.members), b.light)
+
+
+def _triples(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray) -> np.ndarray:
+    """(j, i, k) among the strongest free lights: j and k on either side of i at similar
+    distances, of a size similar to i's, bending as a ring of 6 or more LEDs does."""
+    index = np.flatnonzero(free)
+    index = index[np.argsort([-blobs[i].strength for i in index], kind="stable")][:SEED_LIGHTS]
+    if len(index) < 3:
+        return np.empty((0, 3), np.int64)
+    p = points[index]
+    radius = np.array([blobs[i].radius_px for i in index])
+    peak = np.array([blobs[i].peak for i in index])
+    offset = p[None, :, :] - p[:, None, :]  # [i, j] = p_j - p_i
+    distance = np.hypot(offset[..., 0], offset[..., 1])
+    usable = _alike(radius) & _alike(peak) & (distance >= radius[:, None] + radius[None, :])
+    np.fill_diagonal(usable, False)
+    i, j, k = np.nonzero(usable[:, :, None] & usable[:, None, :])
+    keep = j < k
+    i, j, k = i[keep], j[keep], k[keep]
+    dj, dk = distance[i, j], distance[i, k]
+    keep = np.maximum(dj, dk) <= 2.0 * np.minimum(dj, dk)
+    i, j, k, dj, dk = i[keep], j[keep], k[keep], dj[keep], dk[keep]
+    cosine = np.sum(offset[i, j] * offset[i, k], axis=1) / (dj * dk)
+    turn = 180.0 - np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+    keep = (turn >= _MIN_TURN_DEG) & (turn <= _MAX_TURN_DEG)
+    return np.column_stack([index[j[keep]], index[i[keep]], index[k[keep]]])
+
+
+def _alike(values: np.ndarray) -> np.ndarray:
+    """Pairs whose values are within ALIKE of each other (matrix)."""
+    return np.maximum(values[:, None], values[None, :]) <= ALIKE * np.minimum(values[:, None], values[None, :])
+
+
+def _counts_to_try(points: np.ndarray, triples: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per triple, the range of LED counts its turn suggests: a circle through three neighbouring
+    LEDs turns by 360/N at each; tilt bends that by up to about the axis ratio either way."""
+    j, i, k = points[triples[:, 0]], points[triples[:, 1]], points[triples[:, 2]]
+    u, w = j - i, k - i
+    cosine = np.sum(u * w, axis=1) / (np.linalg.norm(u, axis=1) * np.linalg.norm(w, axis=1))
+    turn = np.pi - np.arccos(np.clip(cosine, -1.0, 1.0))  # exterior angle = central angle of one step
+    estimate = 2.0 * np.pi / np.maximum(turn, 1e-3)
+    low = np.maximum(6, np.floor(0.7 * estimate)).astype(int)
+    high = np.minimum(MAX_COUNT_UNKNOWN, np.ceil(1.45 * estimate)).astype(int)
+    return low, high
+
+
+def _positions(center: np.ndarray, a: np.ndarray, b: np.ndarray, count: int) -> np.ndarray:
+    """Slot positions (..., count, 2) of affine rings with centres c and half-diameters a, b (..., 2)."""
+    angle = 2.0 * np.pi * np.arange(count) / count
+    return (center[..., None, :] + a[..., None, :] * np.cos(angle)[:, None]
+            + b[..., None, :] * np.sin(angle)[:, None])
+
+
+def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, triples: np.ndarray, count: int,
+                in_view: InView | None, count_known: bool) -> list[LedRing]:
+    """Rings of ``count`` LEDs grown from the triples and confirmed by the lights.
+
+    Each triple (slots -1, 0, 1) is grown outwards one step at a time on both sides: the
+    affine ring through the LEDs found so far predicts the next slot, and the nearest light
+    within a share of the local spacing is taken for it. One step of extrapolation at a
+    time keeps the prediction close (a whole ring extrapolated from three LEDs strays by
+    the perspective and the centroids' scatter); of several lights there, the brightest (a
+    light beats what it lights); a slot without a light (dead, hidden, out of the frame) is
+    passed over.
+    """
+    index = np.flatnonzero(free)
+    if len(triples) == 0 or len(index) < 3:
+        return []
+    hypotheses = len(triples)
+    light = np.array([blobs[i].peak for i in index])
+    design = np.column_stack([np.ones(count), _unit_circle(np.arange(count), count)])  # (count, 3)
+    weight = np.zeros((hypotheses, count))
+    found = np.full((hypotheses, count), -1, np.int64)  # light index per slot
+    for slot, column in ((count - 1, 0), (0, 1), (1, 2)):
+        weight[:, slot] = 1.0
+        found[:, slot] = triples[:, column]
+    for distance in range(2, count // 2 + 1):
+        normal = np.einsum("hs,si,sj->hij", weight, design, design)
+        target = np.einsum("hs,si,hsj->hij", weight, design, points[np.maximum(found, 0)])
+        coefficients = np.linalg.solve(normal + 1e-9 * np.eye(3), target)  # (H, 3, 2): c, a, b
+        sides = ((distance % count, distance - 1), ((-distance) % count, (1 - distance) % count))
+        for slot, previous in sides[: 1 if 2 * distance == count else 2]:
+            predicted = design[slot] @ coefficients  # (H, 2)
+            spacing = np.linalg.norm(predicted - design[previous] @ coefficients, axis=1)
+            gap = np.linalg.norm(predicted[:, None, :] - points[index][None, :, :], axis=2)  # (H, F)
+            taken = (found[:, :, None] == index[None, None, :]).any(axis=1)
+            within = ~taken & (gap <= MATCH_TOLERANCE * spacing[:, None])
+            brightest = np.argmax(np.where(within, light[None, :], -1.0), axis=1)
+            hit = within[np.arange(hypotheses), brightest] & (found[:, slot] < 0)
+            found[hit, slot] = index[brightest[hit]]
+            weight[hit, slot] = 1.0
+    minimum = MIN_LEDS_KNOWN_COUNT if count_known else MIN_LEDS_UNKNOWN_COUNT
+    sizes = (found >= 0).sum(axis=1)
+    seen: set[tuple[int, ...]] = set()
+    rings = []
+    for h in np.argsort(-sizes, kind="stable"):
+        if sizes[h] < minimum or len(seen) >= REFITS:
+            break
+        slots = np.flatnonzero(found[h] >= 0)
+        members = tuple(sorted(int(m) for m in found[h, slots]))
+        if members in seen:
+            continue
+        seen.add(members)
+        ring = _refit(points, blobs, free, (found[h, slots], slots), count, in_view)
+        if (ring is not None and len(ring.members) >= minimum and ring.occupancy >= MIN_OCCUPANCY
+                and ring.residual <= MAX_RESIDUAL):
+            rings.append(ring)
+    return rings
+
+
+def _match_positions(points: np.ndarray, light: np.ndarray, free: np.ndarray, predicted: np.ndarray,
+                     tolerance: float, in_view: InView | None) -> list[tuple[np.ndarray, np.ndarray, int]]:
+    """Per hypothesis (predicted slot positions (H, count, 2)): the brightest light within
+    ``tolerance`` of the local spacing of each slot, their slots, and the slots expected in view."""
+    spacing = np.linalg.norm(np.roll(predicted, -1, axis=1) - predicted, axis=2)
+    local = np.minimum(spacing, np.roll(spacing, 1, axis=1))  # (H, count)
+    index = np.flatnonzero(free)
+    gap = np.linalg.norm(predicted[:, :, None, :] - points[index][None, None, :, :], axis=3)  # (H, count, F)
+    within = gap <= tolerance * local[:, :, None]
+    nearest = np.argmax(np.where(within, light[index][None, None, :], -1.0), axis=2)
+    found = np.take_along_axis(within, nearest[:, :, None], axis=2)[:, :, 0]
+    visible = np.ones_like(found) if in_view is None else in_view(predicted.reshape(-1, 2)).reshape(found.shape)
+    results = []
+    for h in range(len(predicted)):
+        slots = np.flatnonzero(found[h])
+        lights = index[nearest[h, slots]]
+        lights, first = np.unique(lights, return_index=True)  # one light, one slot
+        results.append((lights, slots[first], int(np.count_nonzero(visible[h] | found[h]))))
+    return results
+
+
+def _refit(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, match: tuple[np.ndarray, np.ndarray],
+           count: int, in_view: InView | None) -> LedRing | None:
+    """The ring through the matched lights at their slots, re-matched as the model tightens
+    (an affine image of the circle, from 5 LEDs its perspective image, so the final residual
+    is the centroids' scatter, not the model's), keeping only lights alike in size and
+    brightness: the ring's LEDs, not what they light."""
+    lights, slots = match
+    expected = 0
+    for _ in range(2):
+        lights, slots = _alike_members(blobs, lights, slots)
+        if len(lights) < 3:
+            return None
+        model = _slot_model(points[lights], slots, count)
+        if model is None:
+            return None
+        light = np.array([b.peak for b in blobs])
+        lights, slots, expected = _match_positions(points, light, free, model[None], FIT_TOLERANCE, in_view)[0]
+    lights, slots = _alike_members(blobs, lights, slots)
+    if len(lights) < 3:
+        return None
+    model = _slot_model(points[lights], slots, count)
+    if model is None:
+        return None
+    spacing = float(np.mean(np.linalg.norm(np.roll(model, -1, axis=0) - model, axis=1)))
+    if spacing > MAX_SPACING_SIZES * float(np.median([blobs[i].radius_px for i in lights])):
+        return None
+    residual = float(np.sqrt(np.mean(np.sum((points[lights] - model[slots]) ** 2, axis=1)))) / max(spacing, 1e-9)
+    center, a, b = _affine(points[lights], slots, count)
+    homography = _homography(points[lights], slots, count) if len(lights) >= 5 else None
+    if homography is not None:
+        projected = homography @ np.array([0.0, 0.0, 1.0])
+        center = projected[:2] / projected[2]
+    return LedRing(
+        members=tuple(int(x) for x in lights), slots=tuple(int(s) for s in slots), count=count,
+        center=(float(center[0]), float(center[1])), axis_a=(float(a[0]), float(a[1])),
+        axis_b=(float(b[0]), float(b[1])), expected=expected, residual=residual,
+        light=float(sum(blobs[i].peak for i in lights)),
+    )
+
+
+def _alike_members(blobs: list[LedBlob], lights: np.ndarray, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The lights within ALIKE of the members' median size and brightness."""
+    if len(lights) == 0:
+        return lights, slots
+    radius = np.array([blobs[i].radius_px for i in lights])
+    peak = np.array([blobs[i].peak for i in lights])
+    keep = np.ones(len(lights), bool)
+    for values in (radius, peak):
+        median = float(np.median(values))
+        keep &= (values <= ALIKE * median) & (values >= median / ALIKE)
+    return lights[keep], slots[keep]
+
+
+def _unit_circle(slots: np.ndarray, count: int) -> np.ndarray:
+    angle = 2.0 * np.pi * np.asarray(slots) / count
+    return np.column_stack([np.cos(angle), np.sin(angle)])
+
+
+def _affine(xy: np.ndarray, slots: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Least-squares c, a, b of ``c + a cos(s d) + b sin(s d)`` through the lights."""
+    design = np.column_stack([np.ones(len(slots)), _unit_circle(slots, count)])
+    (center, a, b), *_ = np.linalg.lstsq(design, xy, rcond=None)
+    return center, a, b
+
+
+def _homography(xy: np.ndarray, slots: np.ndarray, count: int) -> np.ndarray | None:
+    """The plane-to-image homography of the unit circle's slots (least squares, DLT)."""
+    homography, _ = cv2.findHomography(_unit_circle(slots, count), xy, 0)
+    return None if homography is None or not np.all(np.isfinite(homography)) else homography
+
+
+def _slot_model(xy: np.ndarray, slots: np.ndarray, count: int) -> np.ndarray | None:
+    """Where the model through these lights puts all ``count`` slots (count, 2)."""
+    if len(xy) >= 5:
+        homography = _homography(xy, slots, count)
+        if homography is None:
+            return None
+        circle = np.column_stack([_unit_circle(np.arange(count), count), np.ones(count)])
+        image = circle @ homography.T
+        if np.any(np.abs(image[:, 2]) < 1e-9) or np.ptp(np.sign(image[:, 2])) > 0:
+            return None  # the ring would cross the horizon: not a ring seen from in front
+        return image[:, :2] / image[:, 2:]
+    center, a, b = _affine(xy, slots, count)
+    return _positions(center, a, b, count)

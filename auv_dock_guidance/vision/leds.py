@@ -1,0 +1,182 @@
+"""LED evidence that survives bloom: compact bright blobs found at the LED's own scale.
+
+A real LED blooms: its core saturates to white and a halo of its colour fades over
+several pixels. In the brightest channel the halo saturates too and the LED is a flat
+plateau (often merged with the lit funnel beside it); in the mean of the channels only
+the white core reaches full scale, so the LED stays a compact peak whatever its colour.
+
+On a top-hat of that channel (the search copy's; the opening removes the funnel and
+other wide bright regions) every local maximum is a candidate. Its scale is the box size
+whose centre-surround contrast (mean of a box minus the mean of the box twice as wide
+around it) is largest, measured on an integral image; ridges (cables, rims, edges) are
+dropped by the ratio of the curvatures at that scale, and points inside a bright region
+(texture on the lit funnel) by their surroundings: a point source is darker all round,
+over most of a circle a few blob radii out, and nothing bright passes through it. A blob
+of the ring is later reduced to an intensity-weighted centroid at full resolution
+(`refined`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+_SCALES = np.array([1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0])  # box half widths tried, search-copy pixels
+_RESPONSE_SIGMAS = 5.0  # a blob's centre-surround contrast must stand this many noise deviations clear
+_MAX_CURVATURE_RATIO = 10.0  # curvature ratio above which a peak is a ridge (Lowe's edge test)
+_SURROUND_RADII = 2.5  # blob radii out to the circle that must be mostly darker
+_SURROUND_SAMPLES = 16
+_ANGLES = np.linspace(0.0, 2.0 * math.pi, _SURROUND_SAMPLES, endpoint=False)
+
+
+@dataclass(frozen=True)
+class LedBlob:
+    """One compact light: centre (full-resolution pixels), radius, and how bright it is."""
+
+    u: float
+    v: float
+    radius_px: float  # half width of its best box, full-resolution pixels
+    peak: float  # grey levels of its core above its surroundings (mean of the channels)
+    strength: float  # centre-surround contrast in noise deviations
+
+
+def mean_channel(image: np.ndarray) -> np.ndarray:
+    """The mean of the colour channels: only a white (saturated) core reaches full scale."""
+    if image.ndim == 2:
+        return image
+    return cv2.transform(image, np.full((1, 3), 1.0 / 3.0, np.float32))
+
+
+def find_leds(small: np.ndarray, scale: float, background_px: int, max_count: int = 48) -> list[LedBlob]:
+    """Compact bright blobs, strongest first, at most ``max_count``; centres from the copy.
+
+    ``small`` is the search copy of the frame at ``scale``; ``background_px`` the width of
+    the top-hat's opening on it (wider than any LED, narrower than the lit funnel).
+    """
+    gray = mean_channel(small)
+    k = background_px | 1
+    opened = cv2.morphologyEx(gray, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_RECT, (k, k)))
+    tophat = cv2.subtract(gray, cv2.blur(opened, (k, k)))
+    smooth = cv2.GaussianBlur(tophat, (0, 0), 1.0)
+    sample = smooth[::4, ::4].astype(np.float32)
+    typical = float(np.median(sample))
+    noise = max(0.5, 1.4826 * float(np.median(np.abs(sample - typical))))
+    level = typical + _RESPONSE_SIGMAS * noise
+    maxima = (smooth >= cv2.dilate(smooth, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5)))) & (smooth > level)
+    count, _, _, centres = cv2.connectedComponentsWithStats(maxima.astype(np.uint8), connectivity=8)
+    if count <= 1:
+        return []
+    xy = np.round(centres[1:]).astype(np.int64)  # one point per maximum: a saturated plateau is one
+    heights = smooth[xy[:, 1], xy[:, 0]]
+    xy = xy[np.argsort(-heights, kind="stable")][: 8 * max_count]
+    x, y = xy[:, 0].astype(np.int64), xy[:, 1].astype(np.int64)
+    contrast = _centre_surround(cv2.integral(tophat), x, y)  # (points, scales)
+    best = np.argmax(contrast, axis=1)
+    strength = contrast[np.arange(len(x)), best] / noise
+    radius = _SCALES[best]
+    keep = (strength > _RESPONSE_SIGMAS) & _round(smooth.astype(np.float32), x, y, radius)
+    water = float(np.median(gray[::4, ::4]))
+    peak = _surround_contrast(cv2.GaussianBlur(gray, (0, 0), 1.0).astype(np.float32), x, y, radius, water)
+    keep &= np.isfinite(peak)
+    order = np.flatnonzero(keep)[np.argsort(-strength[keep], kind="stable")]
+    blobs: list[LedBlob] = []
+    for i in order:
+        r = float(radius[i]) / scale
+        u, v = (x[i] + 0.5) / scale - 0.5, (y[i] + 0.5) / scale - 0.5
+        if any(math.hypot(u - b.u, v - b.v) < max(b.radius_px, r) for b in blobs):
+            continue  # the same light seen from another of its maxima
+        blobs.append(LedBlob(float(u), float(v), r, float(peak[i]), float(strength[i])))
+        if len(blobs) >= max_count:
+            break
+    return blobs
+
+
+def _centre_surround(integral: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Mean of a box of each half width minus the mean of the frame around it out to twice
+    that width, per point and scale (boxes clipped to the image)."""
+    h, w = integral.shape[0] - 1, integral.shape[1] - 1
+
+    def box(half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        x0 = np.clip(x[:, None] - half, 0, w)
+        x1 = np.clip(x[:, None] + half + 1, 0, w)
+        y0 = np.clip(y[:, None] - half, 0, h)
+        y1 = np.clip(y[:, None] + half + 1, 0, h)
+        total = integral[y1, x1] - integral[y0, x1] - integral[y1, x0] + integral[y0, x0]
+        return total.astype(np.float64), ((x1 - x0) * (y1 - y0)).astype(np.float64)
+
+    inner_half = np.round(_SCALES).astype(np.int64)[None, :]
+    inner, inner_area = box(inner_half)
+    outer, outer_area = box(2 * inner_half + 1)
+    return inner / inner_area - (outer - inner) / np.maximum(outer_area - inner_area, 1.0)
+
+
+def _round(smooth: np.ndarray, x: np.ndarray, y: np.ndarray, radius: np.ndarray) -> np.ndarray:
+    """Both curvatures at the blob's scale are strong: a blob, not a ridge (a cable, a rim, an edge)."""
+    h, w = smooth.shape
+    step = np.maximum(1, np.round(radius).astype(np.int64))
+
+    def at(dx: np.ndarray | int, dy: np.ndarray | int) -> np.ndarray:
+        return smooth[np.clip(y + dy, 0, h - 1), np.clip(x + dx, 0, w - 1)]
+
+    centre = at(0, 0)
+    dxx = at(step, 0) + at(-step, 0) - 2.0 * centre
+    dyy = at(0, step) + at(0, -step) - 2.0 * centre
+    dxy = 0.25 * (at(step, step) - at(-step, step) - at(step, -step) + at(-step, -step))
+    trace, det = dxx + dyy, dxx * dyy - dxy * dxy
+    ratio = _MAX_CURVATURE_RATIO
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return (trace < 0) & (det > 0) & (trace * trace < det * (ratio + 1.0) ** 2 / ratio)
+
+
+def _surround_contrast(gray: np.ndarray, x: np.ndarray, y: np.ndarray, radius: np.ndarray,
+                       water: float) -> np.ndarray:
+    """How far each blob's core stands above its surroundings (grey levels), NaN where most of
+    a circle a few blob radii out is nearly as bright, or where the core stands above it by
+    less than a third of its height above the water (a spot on a lit region), or where
+    the circle is bright at two opposite points and dark between them (a line passing through:
+    a cable, a rim, a fixture's ring; a light beside a lit region is bright on one side only)."""
+    h, w = gray.shape
+    reach = _SURROUND_RADII * np.maximum(radius, 1.0)[:, None]
+    xs = np.clip(np.round(x[:, None] + reach * np.cos(_ANGLES)).astype(np.int64), 0, w - 1)
+    ys = np.clip(np.round(y[:, None] + reach * np.sin(_ANGLES)).astype(np.int64), 0, h - 1)
+    circle = gray[ys, xs]
+    around = np.sort(circle, axis=1)
+    core = gray[y, x]
+    darkest = around[:, 0]
+    typical = 0.5 * (around[:, _SURROUND_SAMPLES // 2 - 1] + around[:, _SURROUND_SAMPLES // 2])
+    bright = circle >= (core - 0.5 * (core - darkest))[:, None]
+    half, quarter = _SURROUND_SAMPLES // 2, _SURROUND_SAMPLES // 4
+    across = (bright & np.roll(bright, half, axis=1)
+              & ~np.roll(bright, quarter, axis=1) & ~np.roll(bright, -quarter, axis=1))
+    point_source = ((core - darkest > 0) & (core - typical >= 0.5 * (core - darkest))
+                    & (core - typical >= (core - water) / 3.0) & ~across.any(axis=1))
+    return np.where(point_source, core - typical, np.nan)
+
+
+def refined(image: np.ndarray, blob: LedBlob) -> LedBlob:
+    """The blob with its centroid measured at full resolution."""
+    u, v = _centroid(image, blob.u, blob.v, blob.radius_px)
+    return LedBlob(u, v, blob.radius_px, blob.peak, blob.strength)
+
+
+def _centroid(image: np.ndarray, u: float, v: float, radius: float) -> tuple[float, float]:
+    """Intensity-weighted centroid of the core (above half its height over the local floor)."""
+    h, w = image.shape[:2]
+    reach = max(2, int(math.ceil(1.5 * radius)))
+    x0, x1 = max(0, int(round(u)) - reach), min(w, int(round(u)) + reach + 1)
+    y0, y1 = max(0, int(round(v)) - reach), min(h, int(round(v)) + reach + 1)
+    patch = mean_channel(image[y0:y1, x0:x1]).astype(np.float32)
+    if patch.size == 0:
+        return u, v
+    floor, top = float(patch.min()), float(patch.max())
+    weight = np.clip(patch - (floor + 0.5 * (top - floor)), 0.0, None)
+    yy, xx = np.mgrid[y0:y1, x0:x1]
+    inside = (xx - u) ** 2 + (yy - v) ** 2 <= reach * reach
+    weight *= inside
+    total = float(weight.sum())
+    if total <= 0:
+        return u, v
+    return float((weight * xx).sum() / total), float((weight * yy).sum() / total)

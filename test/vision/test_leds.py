@@ -1,0 +1,43 @@
+import cv2
+import numpy as np
+
+from auv_dock_guidance.vision.leds import find_leds, refined
+
+
+def _water(h=300, w=400):
+    rng = np.random.default_rng(1)
+    return np.clip(rng.normal(60, 2, (h, w, 3)), 0, 255).astype(np.float32)
+
+
+def _bloom(image, u, v, halo=4.0, colour=(255, 110, 40)):
+    yy, xx = np.mgrid[0:image.shape[0], 0:image.shape[1]]
+    d2 = (xx - u) ** 2 + (yy - v) ** 2
+    image += 2.5 * np.exp(-d2 / (2 * halo**2))[..., None] * np.array(colour, np.float32)
+    image += 3.0 * 255 * np.exp(-d2 / (2 * 1.2**2))[..., None]
+    return image
+
+
+def _u8(image):
+    return np.clip(image, 0, 255).astype(np.uint8)
+
+
+def test_a_blooming_led_beside_a_saturated_disc_is_a_blob_at_its_centre():
+    image = _water()
+    cv2.circle(image, (150, 150), 60, (255, 255, 255), -1)
+    image = _u8(_bloom(image, 228.0, 151.0))
+    blobs = [refined(image, b) for b in find_leds(image, 1.0, 31)]
+    near = [b for b in blobs if abs(b.u - 228) < 3 and abs(b.v - 151) < 3]
+    assert near and abs(near[0].u - 228) < 1.0 and abs(near[0].v - 151) < 1.0
+
+
+def test_a_cable_a_ring_fixture_and_texture_inside_a_lit_disc_are_not_blobs():
+    image = _water()
+    cv2.line(image, (20, 10), (60, 290), (150, 150, 150), 2)
+    cv2.circle(image, (270, 90), 45, (120, 120, 120), 3)
+    cv2.circle(image, (260, 230), 50, (230, 230, 230), -1)
+    cv2.circle(image, (260, 230), 3, (255, 255, 255), -1)  # a spot on the lit funnel
+    blobs = find_leds(_u8(cv2.GaussianBlur(image, (0, 0), 1.0)), 1.0, 31)
+    on_cable = [b for b in blobs if b.u < 70]
+    on_fixture = [b for b in blobs if abs(np.hypot(b.u - 270, b.v - 90) - 45) < 6]
+    inside_disc = [b for b in blobs if np.hypot(b.u - 260, b.v - 230) < 40]  # its rim may remain: no ring
+    assert on_cable == [] and on_fixture == [] and inside_disc == []
