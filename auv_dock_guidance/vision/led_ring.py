@@ -254,21 +254,18 @@ def _refit(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, match: tu
     brightness: the ring's LEDs, not what they light."""
     lights, slots = match
     expected = 0
-    for _ in range(2):
+    light = np.array([b.peak for b in blobs])
+    model: np.ndarray | None = None
+    for rematch in (True, True, False):
         lights, slots = _alike_members(blobs, lights, slots)
         if len(lights) < 3:
             return None
         model = _slot_model(points[lights], slots, count)
         if model is None:
             return None
-        light = np.array([b.peak for b in blobs])
-        lights, slots, expected = _match_positions(points, light, free, model[None], FIT_TOLERANCE, in_view)[0]
-    lights, slots = _alike_members(blobs, lights, slots)
-    if len(lights) < 3:
-        return None
-    model = _slot_model(points[lights], slots, count)
-    if model is None:
-        return None
+        if rematch:
+            lights, slots, expected = _match_positions(points, light, free, model[None], FIT_TOLERANCE, in_view)[0]
+    assert model is not None  # the last round fitted it
     spacing = float(np.mean(np.linalg.norm(np.roll(model, -1, axis=0) - model, axis=1)))
     if spacing > MAX_SPACING_SIZES * float(np.median([blobs[i].radius_px for i in lights])):
         return None
