@@ -78,10 +78,21 @@ def judge(detection: Detection, truth: GroundTruth, kind: str) -> FrameOutcome:
 
 @dataclass(frozen=True)
 class EvalCase:
-    """One frame to render and detect, and the camera it is seen through."""
+    """One frame to render and detect, the camera it is seen through, and what the detector is told."""
 
     camera: CameraModel
     spec: SceneSpec
+    leds_described: bool = False  # the detector is told the dock's LED count (0: a strip), as its user would
+
+
+def described_marker(config: DetectorConfig, case: EvalCase) -> DetectorConfig:
+    """``config`` told this case's dock: its ring radius always, its LED count where described."""
+    changes: dict[str, Any] = {}
+    if case.spec.marker_radius_m != config.marker_radius_m:
+        changes["marker_radius_m"] = case.spec.marker_radius_m
+    if case.leds_described and case.spec.led_count != config.led_count:
+        changes["led_count"] = case.spec.led_count
+    return replace(config, **changes) if changes else config
 
 
 def _scene_kind(spec: SceneSpec) -> str:
@@ -118,10 +129,10 @@ def run_cases(
 ) -> list[FrameOutcome]:
     """Render and detect each case through its own camera, in parallel when workers > 1.
 
-    The detector is told each scene's dock (its ring radius), as a user describes their
+    The detector is told each scene's dock (described_marker), as a user describes their
     marker, also in frames where the dock is not in view.
     """
-    jobs = [(case.camera, _marker_config(config, case.spec), case.spec) for case in cases]
+    jobs = [(case.camera, described_marker(config, case), case.spec) for case in cases]
     results: list[FrameOutcome] = []
     mapped: Iterable[FrameOutcome]
     if workers > 1:
@@ -141,21 +152,16 @@ def run_cases(
     return results
 
 
-def _marker_config(config: DetectorConfig, spec: SceneSpec) -> DetectorConfig:
-    if spec.marker_radius_m == config.marker_radius_m:
-        return config
-    return replace(config, marker_radius_m=spec.marker_radius_m)
-
-
 def population(camera: CameraModel, frames: int, seed: int, mix: ScenarioMix = ScenarioMix()) -> list[SceneSpec]:
     rng = np.random.default_rng(seed)
     return [random_scene(camera, rng, mix) for _ in range(frames)]
 
 
 def real_dock_population(frames: int, seed: int) -> list[EvalCase]:
-    """The real-dock population (sim/real_dock.py): each frame with its own PAL camera."""
+    """The real-dock population (sim/real_dock.py): each frame with its own PAL camera, the
+    detector told each dock's radius and LED count (not its colour)."""
     rng = np.random.default_rng(seed)
-    return [EvalCase(*real_dock_scene(rng)) for _ in range(frames)]
+    return [EvalCase(*real_dock_scene(rng), leds_described=True) for _ in range(frames)]
 
 
 def sweep_population(

@@ -6,7 +6,15 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from auv_dock_guidance.sim.evaluate import EvalCase, judge, real_dock_population, run_cases, summarize
+from auv_dock_guidance.sim.evaluate import (
+    EvalCase,
+    described_marker,
+    judge,
+    population,
+    real_dock_population,
+    run_cases,
+    summarize,
+)
 from auv_dock_guidance.sim.real_dock import PAL_HEIGHT, PAL_WIDTH, real_dock_scene
 from auv_dock_guidance.sim.scene import GroundTruth, ground_truth
 from auv_dock_guidance.vision.detector import Detection, DetectorConfig
@@ -84,3 +92,13 @@ def test_real_dock_cases_run_through_their_own_cameras():
     assert all(isinstance(o.found, bool) for o in outcomes)
     assert all(math.isfinite(o.range_m) for o in outcomes if o.range_m is not None)
     assert isinstance(cases[0], EvalCase)
+
+
+def test_detector_is_told_the_real_docks_radius_and_led_count_and_the_paper_population_nothing_new(camera):
+    config = DetectorConfig()
+    for case in real_dock_population(20, seed=4):
+        told = described_marker(config, case)
+        assert told.marker_radius_m == case.spec.marker_radius_m
+        assert told.led_count == case.spec.led_count and told.led_bgr is None
+    for spec in population(camera, 20, seed=4):
+        assert described_marker(config, EvalCase(camera, spec)) is config  # the paper's figures stay comparable
