@@ -90,18 +90,21 @@ class RingFit(Protocol):
     def fit_sigma(self) -> float: ...
     @property
     def visible_arc_deg(self) -> float: ...
+    @property
+    def range_approximate(self) -> bool: ...
 
 
-def observation_of(fit: RingFit, marker_radius_m: float, focal_px: float, image_width_px: int,
-                   approximate_camera: bool = False) -> RingObservation | None:
-    """The observation behind a detection, or None when it has no pose."""
+def observation_of(fit: RingFit, marker_radius_m: float, focal_px: float,
+                   image_width_px: int) -> RingObservation | None:
+    """The observation behind a detection, or None when it has no pose; a detection through an
+    approximate camera (``range_approximate``) is less certain."""
     if fit.pose is None:
         return None
     pose = fit.pose
     return RingObservation(
         center_m=(pose.offset_x_m, pose.offset_y_m, pose.range_m), marker_radius_m=marker_radius_m,
         focal_px=focal_px, fit_sigma=fit.fit_sigma, ellipse=fit.ellipse, ring_normal=fit.ring_normal,
-        visible_arc_deg=fit.visible_arc_deg, approximate_camera=approximate_camera, image_width_px=image_width_px,
+        visible_arc_deg=fit.visible_arc_deg, approximate_camera=fit.range_approximate, image_width_px=image_width_px,
     )
 
 

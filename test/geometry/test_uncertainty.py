@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
@@ -79,6 +80,16 @@ def test_the_orientation_follows_the_dock_axis_and_its_roll_is_unknown():
     assert axis @ rotation @ axis == pytest.approx(UNKNOWN_VARIANCE)  # roll about the axis
     across = np.array([0.0, 1.0, 0.0])
     assert 0 < across @ rotation @ across < 0.01  # the tilt is known to a few degrees
+
+
+def test_a_detection_through_an_approximate_camera_is_less_certain():
+    camera = paper_camera().scaled(0.5)
+    image, _ = render(camera, SceneSpec(marker_center_m=(0.3, 0.2, 6.0)))
+    calibrated = Detector(camera).detect(image)
+    guessed = dataclasses.replace(calibrated, range_approximate=True)
+    poses = [dock_pose(observation_of(d, R, camera.focal_px, camera.width)) for d in (calibrated, guessed)]
+    assert poses[1].range_sigma_m > 5 * poses[0].range_sigma_m
+    assert poses[1].matrix()[0, 0] > poses[0].matrix()[0, 0]
 
 
 def test_a_fit_without_its_own_error_is_taken_as_a_pixel():
