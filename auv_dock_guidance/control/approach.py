@@ -15,11 +15,14 @@ limit on a line a little off the axis, as an aircraft lands in a crosswind. The 
 must keep the dock in view, so the heading stays within ``fov_margin_deg`` of the dock's
 bearing until the ring is too close to matter.
 
-Close to the entrance the crossing is predicted by flying this law on in a kinematic
-model (heading rate limit, speed lag, the current estimate): if it would miss the
-centre or arrive beyond the heading limit, the verdict is ``would_miss`` and guidance
-backs off (in reverse, nose on the dock) to a point on the line further out, then tries
-again.
+Keeping the dock in view limits how fast the vehicle can move round it: its ground
+velocity may lead the line of sight by at most the view margin less the crab, so the
+angle off the approach line seen from the dock shrinks by at most tan(lead) per e-fold
+of range. A vehicle too far round (far off the axis close in, or downstream of a line
+turned by a strong cross current) cannot reach the line in view before it must be on it
+(``settle_m``). It then sidesteps: backs off in reverse with the nose on the dock, its
+velocity led towards the line's side, until the line is in reach, and approaches again
+(the dock never leaves the view).
 """
 
 from __future__ import annotations
@@ -42,17 +45,18 @@ class Verdict(StrEnum):
 class ApproachConfig:
     max_speed_mps: float = 0.9  # through the water; full thrust gives 1.0 but turning needs headroom
     min_speed_mps: float = 0.15
+    entry_speed_mps: float = 0.5  # over ground for the last metres at least: a short blind run drifts little
     entry_crab_deg: float = 8.0  # heading limit against the dock's axis for the last metres
     far_crab_deg: float = 30.0  # largest crab far out (the dock must stay in view)
-    crab_near_m: float = 4.0  # along the axis: the entry limit applies below this...
-    crab_far_m: float = 10.0  # ...and the far limit beyond this
+    crab_near_m: float = 6.0  # along the axis: the entry limit applies below this (settled before the commit)...
+    crab_far_m: float = 12.0  # ...and the far limit beyond this
     heading_limit_growth_deg_per_m: float = 20.0  # the heading clamp against the axis widens with distance
-    fov_margin_deg: float = 22.0  # the dock stays within this of the nose (the camera sees about 29 deg each way)
+    fov_margin_deg: float = 26.0  # the dock stays within this of the nose (the lens sees about 34 deg each way)
     fov_until_m: float = 2.0  # closer than this the ring leaves the frame anyway
     lookahead_share: float = 0.4  # lookahead = share of the distance along the line, within the limits
     lookahead_min_m: float = 1.0
     lookahead_max_m: float = 5.0
-    line_margin_deg: float = 3.0  # in a cross current beyond the limit: the line turns this much past the drift
+    line_margin_deg: float = 2.0  # in a cross current beyond the limit: the line turns this much past the drift
     commit_m: float = 3.0  # closer than this along the axis the crossing is predicted and checked
     entry_tolerance_m: float = 0.12  # predicted miss distance that makes the vehicle back off
     entry_heading_limit_deg: float = 12.0  # predicted heading off the axis at the entry that makes it back off
@@ -62,11 +66,17 @@ class ApproachConfig:
     speed_time_constant_s: float = 1.0
     back_off_to_m: float = 8.0  # along the line
     back_off_speed_mps: float = 0.4  # over ground
+    settle_m: float = 4.0  # on the approach line by this far out
+    sidestep_shortfall_deg: float = 3.0  # sidestep when reaching the line in view falls short by more than this...
+    sidestep_spare_deg: float = 2.0  # ...until it is in reach with this to spare
+    sidestep_max_range_m: float = 25.0  # no sidestepping further out than this (the dock must stay detectable)
+    sidestep_lead_deg: float = 18.0  # in reverse the dock is kept this far off the nose (heading control lags)
 
     def __post_init__(self) -> None:
         positive = (self.max_speed_mps, self.entry_crab_deg, self.far_crab_deg, self.fov_margin_deg,
                     self.lookahead_min_m, self.lookahead_max_m, self.commit_m, self.entry_tolerance_m,
-                    self.back_off_to_m, self.back_off_speed_mps, self.crab_near_m)
+                    self.back_off_to_m, self.back_off_speed_mps, self.crab_near_m, self.settle_m,
+                    self.sidestep_max_range_m)
         if not all(math.isfinite(v) and v > 0 for v in positive) or self.crab_far_m <= self.crab_near_m:
             raise ConfigError("approach speeds, angles, distances and tolerances must be positive numbers, "
                               "crab_far_m > crab_near_m")
@@ -80,6 +90,7 @@ class Plan:
     along_m: float  # nose in front of the entrance, along the axis
     cross_m: float  # nose off the axis (starboard of the inbound path +)
     predicted_miss_m: float | None  # where the nose would cross the entrance plane, off the centre
+    sidestep: bool = False  # backing off sideways to bring the approach line within reach
 
 
 @dataclass(frozen=True)
@@ -104,6 +115,7 @@ class Situation:
     axis_yaw_rad: float | None  # direction of travel into the dock; None: not known (line of sight)
     camera_ahead_m: float
     nominal_speed_mps: float  # the speed schedule's speed over ground at this range
+    axis_known: bool = False  # the axis is told from its mirror image: sidesteps are allowed
 
 
 def _unit(yaw: float) -> tuple[float, float]:
@@ -119,18 +131,33 @@ def _clamp(value: float, low: float, high: float) -> float:
 
 
 class ApproachPlanner:
+    """Stateful only while sidestepping (``reset`` ends it)."""
+
     def __init__(self, config: ApproachConfig = ApproachConfig()) -> None:
         self.config = config
+        self.reset()
 
-    def plan(self, s: Situation, backing_off: bool) -> Plan:
+    def reset(self) -> None:
+        self._sidestepping = False
+
+    def plan(self, s: Situation, backing_off: bool, predict_entry: bool = True) -> Plan:
+        """Heading and speed now; ``predict_entry`` also checks the crossing (when new information came)."""
         c = self.config
         geometry = self._geometry(s)
         if backing_off:
+            self._sidestepping = False
             return self._back_off(s, geometry)
+        shortfall = self._shortfall(s, geometry)
+        if self._sidestepping:
+            self._sidestepping = shortfall > -math.radians(c.sidestep_spare_deg)
+        else:
+            self._sidestepping = shortfall > math.radians(c.sidestep_shortfall_deg)
+        if self._sidestepping:
+            return self._sidestep(s, geometry)
         yaw, speed = self._steer(s, geometry)
         along, cross = geometry.along, geometry.cross
         verdict, predicted = Verdict.GO, None
-        if along < c.commit_m:
+        if along < c.commit_m and predict_entry:
             predicted = self._rolled_out_miss(s, yaw, speed)
             if predicted is None or abs(predicted) > c.entry_tolerance_m:
                 verdict = Verdict.WOULD_MISS
@@ -154,7 +181,8 @@ class ApproachPlanner:
         course = g.line_yaw - math.atan2(off_line, lookahead)
         crab_limit = math.radians(c.entry_crab_deg + (c.far_crab_deg - c.entry_crab_deg) * _clamp(
             (g.along - c.crab_near_m) / (c.crab_far_m - c.crab_near_m), 0.0, 1.0))
-        speed, yaw = self._crab(course, s.current_mps, s.nominal_speed_mps, crab_limit)
+        nominal = max(s.nominal_speed_mps, c.entry_speed_mps) if g.along < c.crab_near_m else s.nominal_speed_mps
+        speed, yaw = self._crab(course, s.current_mps, nominal, crab_limit)
         limit = math.radians(c.entry_crab_deg + c.heading_limit_growth_deg_per_m * max(0.0, g.along - 2.0))
         yaw = g.axis_yaw + _clamp(wrap_angle(yaw - g.axis_yaw), -limit, limit)
         if g.distance > c.fov_until_m:
@@ -213,6 +241,41 @@ class ApproachPlanner:
         speed = min(speed, c.max_speed_mps)
         crab = math.asin(_clamp(across / speed, -1.0, 1.0))
         return speed, course - crab
+
+    def _shortfall(self, s: Situation, g: _Geometry) -> float:
+        """How far (angle seen from the dock) the approach line stays out of reach with the dock in view;
+        negative: in reach with that to spare. Zero where sidestepping is not an option."""
+        c = self.config
+        line, line_side = _unit(g.line_yaw), _unit(g.line_yaw + math.pi / 2)
+        on_line, off_line = -_dot(g.nose, line), _dot(g.nose, line_side)
+        if not s.axis_known or on_line <= c.commit_m or g.distance > c.sidestep_max_range_m:
+            return 0.0
+        off_angle = abs(math.atan2(off_line, on_line))
+        lead = self._lead(s, g, -math.copysign(1.0, off_line), reverse=False)
+        return off_angle - math.atan(lead) * math.log(max(on_line / c.settle_m, 1.0))
+
+    def _lead(self, s: Situation, g: _Geometry, towards: float, reverse: bool) -> float:
+        """tan of the largest angle by which the ground velocity can lead the line of sight (forward) or its
+        opposite (reverse) towards one side (``towards`` +1: starboard), at full speed with the dock in view."""
+        c = self.config
+        h = _unit(self._lead_heading(g, towards, reverse))
+        sign = -1.0 if reverse else 1.0
+        ground = (sign * c.max_speed_mps * h[0] + s.current_mps[0], sign * c.max_speed_mps * h[1] + s.current_mps[1])
+        moving = sign * _dot(ground, _unit(g.sight))
+        across = towards * _dot(ground, _unit(g.sight + math.pi / 2))
+        if moving <= 0.0:
+            return math.inf if across > 0 else 0.0
+        return max(0.0, across / moving)
+
+    def _lead_heading(self, g: _Geometry, towards: float, reverse: bool) -> float:
+        fov = math.radians(self.config.sidestep_lead_deg if reverse else self.config.fov_margin_deg)
+        return g.sight + (-towards if reverse else towards) * fov
+
+    def _sidestep(self, s: Situation, g: _Geometry) -> Plan:
+        """In reverse at full speed, nose on the dock, the velocity led towards the approach line's side."""
+        off_line = _dot(g.nose, _unit(g.line_yaw + math.pi / 2))
+        yaw = self._lead_heading(g, -math.copysign(1.0, off_line), reverse=True)
+        return Plan(wrap_angle(yaw), -self.config.max_speed_mps, Verdict.GO, g.along, g.cross, None, sidestep=True)
 
     def _back_off(self, s: Situation, g: _Geometry) -> Plan:
         """In reverse, nose on the dock, to a point on the line further out."""

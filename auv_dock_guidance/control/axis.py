@@ -30,7 +30,8 @@ class AxisConfig:
     noise_deg_per_m2: float = 0.01  # ...growing with the square of the range (the ring shrinks, its tilt blurs)
     outlier_sigmas: float = 3.0  # an observation further than this from both candidates counts as an outlier
     min_observations: int = 5
-    min_margin: float = 8.0  # cost (squared sigmas) by which the mirror must explain the observations worse
+    min_margin: float = 16.0  # cost (squared sigmas) by which the mirror must explain the observations worse
+    min_view_change_deg: float = 4.0  # ...after the line of sight has swung at least this much among them
     coincide_deg: float = 3.0  # candidates closer than this to the line of sight: no mirror ambiguity
     memory: int = 300  # observations kept
     candidates: int = 60  # the most recent observations' directions are tried as the estimate
@@ -50,7 +51,7 @@ class AxisEstimator:
         self.reset()
 
     def reset(self) -> None:
-        self._observations: deque[tuple[float, float, float]] = deque(maxlen=self.config.memory)  # a, b, sigma
+        self._observations: deque[tuple[float, float, float, float]] = deque(maxlen=self.config.memory)  # a, b, sigma, sight
         self._line_of_sight_rad: float | None = None  # direction from the vehicle to the dock
         self._chosen: float | None = None  # the last estimate: kept over its mirror until the mirror is clearly better
         self._estimate: AxisEstimate | None = None
@@ -69,7 +70,8 @@ class AxisEstimator:
         mirror = 2.0 * float(normal @ sight) * sight - normal
         self._line_of_sight_rad = math.atan2(dock[1], dock[0])
         sigma = math.radians(c.noise_deg_at_zero + c.noise_deg_per_m2 * distance**2)
-        self._observations.append((math.atan2(-normal[1], -normal[0]), math.atan2(-mirror[1], -mirror[0]), sigma))
+        self._observations.append((math.atan2(-normal[1], -normal[0]), math.atan2(-mirror[1], -mirror[0]), sigma,
+                                   self._line_of_sight_rad))
         self._estimate = self._estimated()
 
     def estimate(self) -> AxisEstimate | None:
@@ -92,7 +94,9 @@ class AxisEstimator:
         else:
             mirror = wrap_angle(2 * sight - best)
             best_cost, mirror_cost = self._costs(obs, np.array([best, mirror]))
-            known = mirror_cost - best_cost >= c.min_margin
+            swing = _wrapped(obs[:, 3] - sight)
+            viewed_from_apart = float(np.max(swing) - np.min(swing)) >= math.radians(c.min_view_change_deg)
+            known = viewed_from_apart and mirror_cost - best_cost >= c.min_margin
             if not known and self._chosen is not None and \
                     abs(wrap_angle(mirror - self._chosen)) < abs(wrap_angle(best - self._chosen)):
                 best = mirror  # as good as undecided: stay on the side chosen before (no flip-flopping)

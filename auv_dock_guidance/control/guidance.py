@@ -14,6 +14,8 @@ States:
   ``blind_range_m`` (where it should be in view) for ``terminal_lost_timeout_s``: ABORT.
   No detection at all for ``terminal_blind_timeout_s``: ABORT (the blind run should be
   over by then, whatever the speed).
+* TRACK may sidestep (``Plan.sidestep``): back off sideways in reverse, the dock in view,
+  when the approach line is out of reach; counted in ``sidesteps``.
 * RETRY: the approach path predicted that the entry would miss (too far off the centre
   close in): instead of ramming, back off in reverse with the nose on the dock to a point
   on the approach line further out, then TRACK again. Drives like TRACK (a fresh
@@ -150,6 +152,7 @@ class Guidance:
         self.axis = AxisEstimator(config.axis)
         self.clock_steps_back = 0
         self.retries = 0
+        self.sidesteps = 0
         self._clock_s: float | None = None  # the newest clock reading seen
         self.reset()
 
@@ -168,7 +171,10 @@ class Guidance:
         self.cascade.reset()
         self.tracker = DockTracker(_tracker_config(self.config))
         self.axis = AxisEstimator(self.config.axis)
+        self.planner.reset()
         self.retries = 0
+        self.sidesteps = 0
+        self._sidestepping = False
         self._water_speed = 0.0  # the vehicle's own speed through the water, from its thrust
         self._surge = 0.0  # the surge share of the last command
         self._since: float | None = None  # time the current state began
@@ -270,7 +276,10 @@ class Guidance:
             self._own_motion(dt, attitude)
             if target is not None:
                 self._observe(target, attitude)
-            plan = self._plan(attitude)
+            plan = self._plan(attitude, predict_entry=target is not None)
+            sidestepping = plan is not None and plan.sidestep and self.state is State.TRACK
+            self.sidesteps += sidestepping and not self._sidestepping
+            self._sidestepping = sidestepping
         before = self.state
         transition = self._next_state(now_s, target, attitude, docked_signal, plan)
         if self.state in (State.ABORT, State.DOCKED) or attitude is None or self._camera_silent(now_s):
@@ -288,7 +297,7 @@ class Guidance:
         seen = self._last_target.range_m - self._run_since_sighting if self._last_target else None
         if plan is not None:
             if (self.state is State.RETRY) != (before is State.RETRY):
-                plan = self._plan(attitude)
+                plan = self._plan(attitude, predict_entry=False)
             assert plan is not None  # the tracker has a fix once anything was seen
             self.cascade.steer_yaw(plan.yaw_rad, level=self.state is State.RETRY)
             speed = plan.speed_mps
@@ -316,7 +325,7 @@ class Guidance:
         if self.config.axis_alignment and target.axis_optical is not None:
             self.axis.observe(target, target.axis_optical, attitude)
 
-    def _plan(self, attitude: Attitude) -> Plan | None:
+    def _plan(self, attitude: Attitude, predict_entry: bool) -> Plan | None:
         fix = self.tracker.fix()
         if fix is None:
             return None
@@ -327,8 +336,9 @@ class Guidance:
             water_speed_mps=self._water_speed, axis_yaw_rad=axis.yaw_rad if axis is not None else None,
             camera_ahead_m=self.config.tracker.camera_ahead_m,
             nominal_speed_mps=self.cascade.speed_for_range(range_m - self.config.tracker.camera_ahead_m),
+            axis_known=axis is not None and axis.known,
         )
-        return self.planner.plan(situation, backing_off=self.state is State.RETRY)
+        return self.planner.plan(situation, backing_off=self.state is State.RETRY, predict_entry=predict_entry)
 
     def _refusal(self, now_s: float, target: Target) -> str | None:
         """Why a new detection must not be acted on, or None."""

@@ -2,7 +2,9 @@
 
 A Kalman filter in the level navigation frame (x along yaw 0, y to starboard; the
 navigation's heading is the only absolute reference it needs). State: the vehicle's
-reference point relative to the dock's entrance centre (m) and the water current (m/s).
+reference point relative to the dock's entrance centre (m), the water current (m/s) and
+the error of the vehicle's own speed model (a share: thrust gives the speed only
+approximately; once the heading has changed it is told apart from the current).
 Between detections the vehicle's own motion through the water (its heading from the
 navigation and its speed from its own thrust) plus the current moves the position; each
 detection, turned into the level frame with the attitude at the frame, corrects it. The
@@ -52,6 +54,8 @@ class TrackerConfig:
     motion_noise_mps: float = 0.08  # error of the vehicle's own motion model (speed, sideslip), white
     current_noise_mps2: float = 0.01  # how fast the current may change (random walk)
     initial_current_sigma_mps: float = 0.3
+    initial_speed_error_sigma: float = 0.08  # own speed model's error, share of the speed
+    speed_error_noise_per_s: float = 0.002  # how fast that error may drift (random walk)
     lateral_noise_per_m: float = 0.009  # measurement noise across the line of sight (detector + attitude), per m
     range_noise_rel: float = 0.02  # measurement noise along it, relative to range
     gate_chi2: float = 13.8  # innovation gate (2 dof, 99.9 %): larger jumps are rejected
@@ -75,8 +79,8 @@ class DockTracker:
         self.reset()
 
     def reset(self) -> None:
-        self._x: np.ndarray | None = None  # rx, ry, cx, cy
-        self._p = np.eye(4)
+        self._x: np.ndarray | None = None  # rx, ry, cx, cy, speed model error (share)
+        self._p = np.eye(5)
         self._rejections = 0
         self.rejected = 0
 
@@ -96,11 +100,13 @@ class DockTracker:
         if self._x is None or dt <= 0:
             return
         c = self.config
-        f = np.eye(4)
+        f = np.eye(5)
         if c.estimate_current:
             f[0, 2] = f[1, 3] = dt
-        self._x = f @ self._x + np.array([own_displacement_m[0], own_displacement_m[1], 0.0, 0.0])
-        q = np.diag([c.motion_noise_mps**2 * dt] * 2 + [c.current_noise_mps2**2 * dt] * 2)
+            f[0, 4], f[1, 4] = own_displacement_m
+        self._x = f @ self._x + np.array([own_displacement_m[0], own_displacement_m[1], 0.0, 0.0, 0.0])
+        q = np.diag([c.motion_noise_mps**2 * dt] * 2 + [c.current_noise_mps2**2 * dt] * 2
+                    + [c.speed_error_noise_per_s**2 * dt])
         self._p = f @ self._p @ f.T + q
 
     def update(self, target: Target, attitude: Attitude) -> bool:
@@ -113,7 +119,7 @@ class DockTracker:
         if self._x is None or not c.estimate_current:
             self._start(z, r)
             return True
-        h = np.hstack([np.eye(2), np.zeros((2, 2))])
+        h = np.hstack([np.eye(2), np.zeros((2, 3))])
         s = h @ self._p @ h.T + r
         innovation = z - h @ self._x
         distance = float(innovation @ np.linalg.solve(s, innovation))
@@ -125,18 +131,20 @@ class DockTracker:
             return False
         k = self._p @ h.T @ np.linalg.inv(s)
         self._x = self._x + k @ innovation
-        self._p = (np.eye(4) - k @ h) @ self._p
+        self._p = (np.eye(5) - k @ h) @ self._p
         self._rejections = 0
         return True
 
     def _start(self, z: np.ndarray, r: np.ndarray) -> None:
-        """Position from this detection; the current estimate is kept if there is one."""
-        current = self._x[2:] if self._x is not None else np.zeros(2)
-        current_p = self._p[2:, 2:] if self._x is not None else np.eye(2) * self.config.initial_current_sigma_mps**2
-        if not self.config.estimate_current:
-            current, current_p = np.zeros(2), np.zeros((2, 2))
+        """Position from this detection; the current and speed error estimates are kept if there are any."""
+        c = self.config
+        current = self._x[2:] if self._x is not None else np.zeros(3)
+        current_p = self._p[2:, 2:] if self._x is not None else np.diag(
+            [c.initial_current_sigma_mps**2] * 2 + [c.initial_speed_error_sigma**2])
+        if not c.estimate_current:
+            current, current_p = np.zeros(3), np.zeros((3, 3))
         self._x = np.concatenate([z, current])
-        self._p = np.zeros((4, 4))
+        self._p = np.zeros((5, 5))
         self._p[:2, :2] = r
         self._p[2:, 2:] = current_p
         self._rejections = 0

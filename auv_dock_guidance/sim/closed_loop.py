@@ -103,6 +103,7 @@ class EpisodeResult:
     frames: int = 0
     reflection_frames: int = 0
     retries: int = 0
+    sidesteps: int = 0  # backing off sideways to bring the approach line within reach
     start_range_m: float = 0.0  # from the dock's entrance centre
     start_off_axis_deg: float = 0.0  # angle off the dock's axis as seen from the dock
     current_mps: float = 0.0  # steady current's speed
@@ -282,6 +283,7 @@ def run_episode(config: EpisodeConfig, seed: int, on_frame: FrameHook | None = N
     result.time_s = t
     result.frames = frame
     result.retries = guidance.retries
+    result.sidesteps = guidance.sidesteps
     result.max_detection_range_m = max_range or None
     if not result.success and result.reason != "timeout" and result.reflection_frames > frame / 4:
         result.reason = "chose_reflection"

@@ -71,6 +71,7 @@ def summarize(results: list[EpisodeResult]) -> dict[str, Any]:
         "retries": sum(r.retries for r in results),
         "episodes_with_retries": sum(1 for r in results if r.retries),
         "docked_after_retrying": sum(1 for r in ok if r.retries),
+        "sidesteps": sum(r.sidesteps for r in results),
         "failed_seeds": [r.seed for r in results if not r.success],
         "by_start_bin": by_start_bin(results),
     }
