@@ -154,6 +154,8 @@ class ApproachPlanner:
             self._sidestepping = shortfall > math.radians(c.sidestep_shortfall_deg)
         if self._sidestepping:
             return self._sidestep(s, geometry)
+        if shortfall > -math.radians(c.sidestep_spare_deg + c.sidestep_shortfall_deg):
+            s = replace(s, nominal_speed_mps=c.max_speed_mps)  # the line is barely in reach: the most lead there is
         yaw, speed = self._steer(s, geometry)
         along, cross = geometry.along, geometry.cross
         verdict, predicted = Verdict.GO, None

@@ -51,7 +51,8 @@ class AxisEstimator:
         self.reset()
 
     def reset(self) -> None:
-        self._observations: deque[tuple[float, float, float, float]] = deque(maxlen=self.config.memory)  # a, b, sigma, sight
+        # candidate a, its mirror b, sigma, line of sight (rad)
+        self._observations: deque[tuple[float, float, float, float]] = deque(maxlen=self.config.memory)
         self._line_of_sight_rad: float | None = None  # direction from the vehicle to the dock
         self._chosen: float | None = None  # the last estimate: kept over its mirror until the mirror is clearly better
         self._estimate: AxisEstimate | None = None

@@ -25,6 +25,7 @@ from auv_dock_guidance.control.guidance import Guidance, GuidanceConfig, State
 from auv_dock_guidance.control.mixer import Mixer
 from auv_dock_guidance.control.pid import wrap_angle
 from auv_dock_guidance.geometry.camera import CameraModel, paper_camera
+from auv_dock_guidance.sim.scenarios import dock_look
 from auv_dock_guidance.sim.scene import GroundTruth, SceneSpec, render
 from auv_dock_guidance.sim.vehicle import AuvDynamics
 from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
@@ -138,16 +139,22 @@ def open_water_start(world: PoolWorld, rng: np.random.Generator, chosen: OpenWat
                        yaw=wrap_angle(-to_dock + math.radians(heading_off)))
 
 
+OPEN_WATER_ATTENUATION_PER_M = (0.03, 0.1)  # clear to coastal sea water: the dock shows where the camera takes over
+
+
 def episode_world(config: EpisodeConfig, rng: np.random.Generator) -> PoolWorld:
-    """The pool (or open water) with this episode's water: turbidity and LED brightness vary between runs."""
+    """The pool (or open water) with this episode's water: turbidity and LED brightness vary between runs.
+
+    Open water: a real-looking dock (``dock_look``: blooming LEDs around a lit funnel, or a
+    strip) in sea water of 0.03-0.1 /m, where a dock shows 15-30 m out, where the camera
+    takes over from acoustic homing (``dock_look`` draws up to 0.2 /m, the turbid water of
+    harbours and pools, which would hide it there). Its halo is scaled with the attenuation.
+    """
     if config.open_water:
-        # Clear sea water and a dock bright enough to be seen 30 m out, as where acoustic homing hands over.
-        attenuation = rng.uniform(0.03, 0.07)
-        scene = SceneSpec(
-            brightness=rng.uniform(3.0, 5.0), attenuation_per_m=attenuation, halo_fraction_per_m=0.5 * attenuation,
-            backscatter=rng.uniform(0.02, 0.08), ambient_top=rng.uniform(0.05, 0.2), read_noise=rng.uniform(1.5, 3.0),
-            led_count=int(rng.choice([0, 0, 48, 96])),
-        )
+        look = dock_look(rng)
+        attenuation = rng.uniform(*OPEN_WATER_ATTENUATION_PER_M)
+        scene = replace(look, attenuation_per_m=attenuation,
+                        halo_fraction_per_m=look.halo_fraction_per_m * attenuation / look.attenuation_per_m)
         return PoolWorld(dock_depth_m=8.0, walls=False, scene=scene,
                          dock_axis_yaw_rad=float(rng.uniform(-math.pi, math.pi)))
     attenuation = rng.uniform(0.05, 0.15)
@@ -216,7 +223,8 @@ def run_episode(config: EpisodeConfig, seed: int, on_frame: FrameHook | None = N
     guidance_config = config.guidance_config()
     homing = AcousticHoming(world, rng, guidance_config.cascade.cruise_speed_mps,
                             guidance_config.cascade.full_thrust_speed_mps) if config.open_water else None
-    detector = Detector(camera, DetectorConfig(marker_radius_m=world.entrance_radius_m))
+    # Tracking as the deployed detector node runs it: a window round the predicted ring, the whole frame when lost.
+    detector = Detector(camera, DetectorConfig(marker_radius_m=world.entrance_radius_m, tracking=True))
     guidance = Guidance(guidance_config)
     result = EpisodeResult(seed, False, "timeout", 0.0, None, None, None, [], [], [])
     _describe_start(result, world, vehicle)
@@ -235,7 +243,7 @@ def run_episode(config: EpisodeConfig, seed: int, on_frame: FrameHook | None = N
             frame += 1
             spec = world.scene_for(vehicle.pose, seed=seed * 100000 + frame)
             image, truth = render(camera, spec)
-            detection = detector.detect(image)
+            detection = detector.detect(image, t)
             if on_frame is not None:
                 on_frame(t, image, detection, truth)
             guidance.frame_processed(t)
