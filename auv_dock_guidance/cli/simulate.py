@@ -83,7 +83,8 @@ def _print_report(report: dict) -> None:
     print(f"scenario {report['scenario']}, steering {report['steering']}: docked {report['successes']}/"
           f"{report['episodes']} ({100 * report['success_rate']:.1f} %, 95 % CI {100 * low:.1f}-{100 * high:.1f} %)")
     print(f"failures: {report['failures'] or 'none'}; retries {report['retries']} in "
-          f"{report['episodes_with_retries']} episodes ({report['docked_after_retrying']} docked after retrying)")
+          f"{report['episodes_with_retries']} episodes ({report['docked_after_retrying']} docked after retrying); "
+          f"sidesteps {report['sidesteps']}")
     if report["docking_time_s_median"] is not None:
         print(f"docking time median {report['docking_time_s_median']:.1f} s")
     if report["entry_lateral_error_m_p50"] is not None:

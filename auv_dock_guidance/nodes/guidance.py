@@ -1,9 +1,13 @@
 """guidance node: the dock's position and the vehicle's attitude in, thruster commands out.
 
 The dock comes from the camera; ``camera_mounting.*`` (base_link -> camera optical frame)
-re-expresses it about the vehicle's centre line before it is steered on.
+re-expresses it about the vehicle's centre line before it is steered on. dock/pose gives
+the dock's axis too (its orientation's x axis, where the tilt-aware fit resolved it: a
+small tilt variance), which ``axis_alignment`` lines up with; while dock/pose comes,
+dock/target (the same position) is not acted on twice.
 
-Subscribes  dock/target (geometry_msgs/PointStamped), dock/detected (std_msgs/Bool),
+Subscribes  dock/pose (geometry_msgs/PoseWithCovarianceStamped), dock/target (geometry_msgs/PointStamped),
+            dock/detected (std_msgs/Bool),
             vehicle/imu (sensor_msgs/Imu), vehicle/depth (std_msgs/Float64), vehicle/docked (std_msgs/Bool)
 Publishes   thrusters/command (std_msgs/UInt16MultiArray: pulse widths in us for
             port upper, starboard upper, port lower, starboard lower),
@@ -24,7 +28,7 @@ from typing import Any
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from geometry_msgs.msg import PointStamped, Vector3Stamped
+from geometry_msgs.msg import PointStamped, PoseWithCovarianceStamped, Vector3Stamped
 from rclpy.node import Node
 from sensor_msgs.msg import Imu
 from std_msgs.msg import Bool, Float64, MultiArrayDimension, String, UInt16MultiArray
@@ -76,7 +80,7 @@ PARAMS = [
     Param("inner.kd", 0.6, "inner loop derivative gain", 0.0, 50.0),
     Param("max_turn_deg", 25.0, "largest yaw turn the outer loop may ask for (deg)", 1.0, 90.0),
     Param("velocity_steering", True, "track the dock in the level frame and crab into the estimated current"),
-    Param("axis_alignment", True, "line up with the dock's axis (ring normals on dock/axis) before the entry"),
+    Param("axis_alignment", True, "line up with the dock's axis (the orientation on dock/pose) before the entry"),
     Param("max_retries", 3, "back off and retry this often when the entry would miss, then abort", 0, 20),
     Param("max_speed_mps", 0.9, "fastest approach through the water, used against a cross current (m/s)", 0.1, 5.0),
     Param("entry_crab_deg", 8.0, "largest heading off the dock's axis for the last metres (deg)", 1.0, 30.0),
@@ -115,6 +119,8 @@ class GuidanceNode(Node):
         self.guidance = Guidance(guidance_config(self.values, self.mixer_config, self.mounting.x_m))
         on_parameter_change(self, self._apply_parameters)
         self.create_subscription(PointStamped, "dock/target", self._on_target, 10)
+        self.create_subscription(PoseWithCovarianceStamped, "dock/pose", self._on_pose, 10)
+        self._pose_seen_s: float | None = None  # node clock when dock/pose last came
         self.create_subscription(Imu, "vehicle/imu", self._on_imu, 10)
         self.create_subscription(Float64, "vehicle/depth", self._on_depth, 10)
         self.create_subscription(Bool, "vehicle/docked", self._on_docked, 10)
@@ -184,9 +190,22 @@ class GuidanceNode(Node):
             self.guidance.marker_missed()
 
     def _on_target(self, msg: PointStamped) -> None:
+        now = self.get_clock().now().nanoseconds * 1e-9
+        if self._pose_seen_s is not None and 0.0 <= now - self._pose_seen_s < POSE_PREFERRED_S:
+            return  # dock/pose carries the same position, and the axis
         p = msg.point
         forward, right, down = self.mounting.target_about_vehicle(np.array([p.x, p.y, p.z]))
         self._step(Target(stamp_seconds(msg.header.stamp), forward, right, down))
+
+    def _on_pose(self, msg: PoseWithCovarianceStamped) -> None:
+        self._pose_seen_s = self.get_clock().now().nanoseconds * 1e-9
+        p = msg.pose.pose.position
+        forward, right, down = self.mounting.target_about_vehicle(np.array([p.x, p.y, p.z]))
+        axis = dock_axis_optical(msg)
+        if axis is not None:  # about the vehicle as the position is: optical-like (right, down, forward)
+            base = self.mounting.base_from_optical() @ axis
+            axis = (float(-base[1]), float(-base[2]), float(base[0]))
+        self._step(Target(stamp_seconds(msg.header.stamp), forward, right, down, axis))
 
     def _on_timer(self) -> None:
         self._step(None)
@@ -246,6 +265,25 @@ class GuidanceNode(Node):
             "telemetry_age_s": f"{telemetry_age:.3f}", "clock_steps_back": self.guidance.clock_steps_back,
             **self.problems.values(),
         })
+
+
+POSE_PREFERRED_S = 1.0  # dock/target is ignored this long after a dock/pose
+AXIS_TILT_VARIANCE_LIMIT = math.radians(10.0) ** 2  # an axis less certain than this is not lined up with
+
+
+def dock_axis_optical(msg: PoseWithCovarianceStamped) -> np.ndarray | None:
+    """The dock's axis (out of the entrance, towards the camera) in the optical frame, if dock/pose resolved it."""
+    q = msg.pose.pose.orientation
+    x, y, z, w = q.x, q.y, q.z, q.w
+    axis = np.array([1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + z * w), 2.0 * (x * z - y * w)])
+    if not np.all(np.isfinite(axis)) or np.linalg.norm(axis) < 0.5:
+        return None
+    axis /= np.linalg.norm(axis)
+    across = np.cross(axis, [0.0, 0.0, 1.0] if abs(axis[2]) < 0.9 else [1.0, 0.0, 0.0])
+    across /= np.linalg.norm(across)
+    rotation = np.asarray(msg.pose.covariance, dtype=float).reshape(6, 6)[3:, 3:]
+    tilt_variance = float(across @ rotation @ across)
+    return axis if math.isfinite(tilt_variance) and tilt_variance <= AXIS_TILT_VARIANCE_LIMIT else None
 
 
 def main(args: list[str] | None = None) -> int:
