@@ -148,13 +148,15 @@ class ApproachPlanner:
             self._sidestepping = False
             return self._back_off(s, geometry)
         shortfall = self._shortfall(s, geometry)
-        if self._sidestepping:
+        if shortfall is None:
+            self._sidestepping = False
+        elif self._sidestepping:
             self._sidestepping = shortfall > -math.radians(c.sidestep_spare_deg)
         else:
             self._sidestepping = shortfall > math.radians(c.sidestep_shortfall_deg)
         if self._sidestepping:
             return self._sidestep(s, geometry)
-        if shortfall > -math.radians(c.sidestep_spare_deg + c.sidestep_shortfall_deg):
+        if shortfall is not None and shortfall > -math.radians(c.sidestep_spare_deg + c.sidestep_shortfall_deg):
             s = replace(s, nominal_speed_mps=c.max_speed_mps)  # the line is barely in reach: the most lead there is
         yaw, speed = self._steer(s, geometry)
         along, cross = geometry.along, geometry.cross
@@ -244,14 +246,15 @@ class ApproachPlanner:
         crab = math.asin(_clamp(across / speed, -1.0, 1.0))
         return speed, course - crab
 
-    def _shortfall(self, s: Situation, g: _Geometry) -> float:
+    def _shortfall(self, s: Situation, g: _Geometry) -> float | None:
         """How far (angle seen from the dock) the approach line stays out of reach with the dock in view;
-        negative: in reach with that to spare. Zero where sidestepping is not an option."""
+        negative: in reach with that to spare. None where sidestepping is not an option (axis not
+        known, inside the commit distance, too far out)."""
         c = self.config
         line, line_side = _unit(g.line_yaw), _unit(g.line_yaw + math.pi / 2)
         on_line, off_line = -_dot(g.nose, line), _dot(g.nose, line_side)
         if not s.axis_known or on_line <= c.commit_m or g.distance > c.sidestep_max_range_m:
-            return 0.0
+            return None
         off_angle = abs(math.atan2(off_line, on_line))
         lead = self._lead(s, g, -math.copysign(1.0, off_line), reverse=False)
         return off_angle - math.atan(lead) * math.log(max(on_line / c.settle_m, 1.0))
