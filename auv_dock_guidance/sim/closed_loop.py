@@ -25,6 +25,7 @@ from auv_dock_guidance.control.guidance import Guidance, GuidanceConfig, State
 from auv_dock_guidance.control.mixer import Mixer
 from auv_dock_guidance.control.pid import wrap_angle
 from auv_dock_guidance.geometry.camera import CameraModel, paper_camera
+from auv_dock_guidance.geometry.pose import circles_from_ellipse
 from auv_dock_guidance.sim.scenarios import dock_look
 from auv_dock_guidance.sim.scene import GroundTruth, SceneSpec, render
 from auv_dock_guidance.sim.vehicle import AuvDynamics
@@ -249,7 +250,7 @@ def run_episode(config: EpisodeConfig, seed: int, on_frame: FrameHook | None = N
             guidance.frame_processed(t)
             pose = detection.pose
             if detection.found and pose is not None:
-                target = Target(t, pose.range_m, pose.offset_x_m, pose.offset_y_m, detection.ring_normal)
+                target = Target(t, pose.range_m, pose.offset_x_m, pose.offset_y_m, ring_axis(detection, world))
                 if truth.center_px is not None:
                     max_range = max(max_range, truth.position_m[2] if truth.position_m else 0.0)
                 if _on_reflection(detection.u, detection.v, truth):
@@ -296,6 +297,15 @@ def run_episode(config: EpisodeConfig, seed: int, on_frame: FrameHook | None = N
     if not result.success and result.reason != "timeout" and result.reflection_frames > frame / 4:
         result.reason = "chose_reflection"
     return result
+
+
+def ring_axis(detection: Detection, world: PoolWorld) -> tuple[float, float, float] | None:
+    """The ring's axis as the fit resolved it, or else one of the two circles its ellipse fits: guidance's
+    axis estimate takes every observation as a pair of mirror images and tells them apart as the view moves."""
+    if detection.ring_normal is not None or detection.ellipse is None:
+        return detection.ring_normal
+    candidates = circles_from_ellipse(detection.ellipse, world.entrance_radius_m)
+    return tuple(float(v) for v in candidates[0].normal) if candidates else None  # type: ignore[return-value]
 
 
 def _describe_start(result: EpisodeResult, world: PoolWorld, vehicle: AuvDynamics) -> None:
