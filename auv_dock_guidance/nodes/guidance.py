@@ -201,9 +201,10 @@ class GuidanceNode(Node):
         self._pose_seen_s = self.get_clock().now().nanoseconds * 1e-9
         p = msg.pose.pose.position
         forward, right, down = self.mounting.target_about_vehicle(np.array([p.x, p.y, p.z]))
-        axis = dock_axis_optical(msg)
-        if axis is not None:  # about the vehicle as the position is: optical-like (right, down, forward)
-            base = self.mounting.base_from_optical() @ axis
+        normal = dock_axis_optical(msg)
+        axis = None
+        if normal is not None:  # about the vehicle as the position is: optical-like (right, down, forward)
+            base = self.mounting.base_from_optical() @ normal
             axis = (float(-base[1]), float(-base[2]), float(base[0]))
         self._step(Target(stamp_seconds(msg.header.stamp), forward, right, down, axis))
 
