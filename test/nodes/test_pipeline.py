@@ -104,8 +104,10 @@ FAR_M, NEAR_M = (1.0, 0.6, 8.0), (0.5, 0.3, 4.0)  # one bearing, right of and be
 def far_near_gone(tmp_path_factory):
     folder = tmp_path_factory.mktemp("far_near_gone")
     camera = paper_camera()
-    for i, centre in enumerate((FAR_M, NEAR_M, FAR_M, NEAR_M, None)):  # the dock far, near, then out of view
-        image, _ = render(camera, SceneSpec(marker_center_m=centre, seed=i))
+    # The dock far, near, then out of view; each held a few frames, as in a real approach (the
+    # first frame after a jump is segmented with the threshold of the last size, and is rougher).
+    for i, centre in enumerate([FAR_M] * 5 + [NEAR_M] * 5 + [None]):
+        image, _ = render(camera, SceneSpec(marker_center_m=centre, seed=i % 5))
         cv2.imwrite(str(folder / f"frame_{i:02d}.png"), image)
     return folder
 
@@ -146,7 +148,7 @@ def test_dock_pose_and_marker_follow_the_dock(far_near_gone, domain_id, tmp_path
         assert np.allclose(cov, cov.T) and np.linalg.eigvalsh(cov).min() > 0
         variance["near" if truth is NEAR_M else "far"].append(cov[2, 2])
         assert msg.header.frame_id == "camera_optical_frame"
-    assert min(variance["far"]) > max(variance["near"]), "the range's variance grows with the range"
+    assert np.median(variance["far"]) > 2 * np.median(variance["near"]), "the range's variance grows with the range"
     ring = [m for m in markers if m.action == Marker.ADD and m.type == Marker.LINE_STRIP]
     assert ring and any(m.action == Marker.ADD and m.type == Marker.ARROW for m in markers)
     assert np.allclose([np.hypot(q.y, q.z) for q in ring[-1].points], 0.35)
@@ -155,8 +157,9 @@ def test_dock_pose_and_marker_follow_the_dock(far_near_gone, domain_id, tmp_path
     assert all(code == 0 for code in codes.values()), codes
 
 
-def _both_ranges(poses: list) -> bool:
-    return {msg.pose.pose.position.z < 6.0 for msg in poses} == {True, False}
+def _both_ranges(poses: list, each: int = 4) -> bool:
+    near = sum(msg.pose.pose.position.z < 6.0 for msg in poses)
+    return near >= each and len(poses) - near >= each
 
 
 def _cleared(markers: list) -> bool:
