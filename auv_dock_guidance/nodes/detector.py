@@ -9,8 +9,9 @@ Publishes   dock/target (geometry_msgs/PointStamped, metres, camera optical fram
             dock/detected (std_msgs/Bool, every frame),
             dock/debug_image/compressed (sensor_msgs/CompressedImage, JPEG, throttled),
             /diagnostics (diagnostic_msgs/DiagnosticArray, 1 Hz: rate, skipped frames, timings)
-Tracking (on by default) refines a window around where the marker is predicted to be, and
-searches the whole frame when it is lost and every ``full_search_every`` frames.
+Tracking (on by default) refines a window around where the marker is predicted to be; it
+searches the whole frame when the marker is lost, and every ``full_search_every`` frames
+a slice at a time over the next frames (no frame waits for a whole search).
 Only the newest frame is processed: a slow frame never queues stale ones. Frames the
 camera published but the detector never saw are counted from the publisher's sequence
 numbers and reported on /diagnostics. In one process with camera_ingest

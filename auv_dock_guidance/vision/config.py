@@ -29,7 +29,7 @@ class DetectorConfig:
     refine_radius_px: float = 90.0  # refine at a resolution where the ring is about this large
     bilateral: BilateralParams = BilateralParams(diameter=5, sigma_color=30.0, sigma_space=3.0)
     tracking: bool = False  # look near the last marker first; search the whole frame when lost
-    full_search_every: int = 15  # while tracking, still search the whole frame this often (frames)
+    full_search_every: int = 15  # while tracking, start a search of the whole frame (a slice per frame) this often
     track_window_radii: float = 1.5  # tracking window half-width in ring radii (plus room for motion)
     canny_low: float = 0.04  # hysteresis thresholds as shares of the region's contrast, per px
     canny_high: float = 0.10

@@ -31,7 +31,7 @@ from auv_dock_guidance.vision.refine import Refiner, Region, add_region
 from auv_dock_guidance.vision.search import Window, picture_area, search, search_copy
 from auv_dock_guidance.vision.selection import choose
 from auv_dock_guidance.vision.threshold import AdaptiveThreshold
-from auv_dock_guidance.vision.tracking import UNSTAMPED_FRAME_S, WindowTracker
+from auv_dock_guidance.vision.tracking import UNSTAMPED_FRAME_S, SpreadSearch, WindowTracker, in_window
 
 __all__ = ["Detection", "Detector", "DetectorConfig", "PaperBaseline"]
 
@@ -49,11 +49,13 @@ class Detector:
         self.threshold = AdaptiveThreshold(config.threshold)
         self._last: Detection | None = None  # the previous frame's marker
         self.tracker = WindowTracker()
+        self._spread = SpreadSearch()  # the whole frame's search while tracking, a slice per frame
         self._frames = 0
 
     def reset(self) -> None:
         self.threshold.reset()
         self.tracker.reset()
+        self._spread.stop()
         self._last = None
         self._frames = 0
 
@@ -66,11 +68,18 @@ class Detector:
         time_s = self._frames * UNSTAMPED_FRAME_S if stamp_s is None else stamp_s
         window = self.tracker.window(image.shape[:2], time_s, self.config.track_window_radii) \
             if self.config.tracking else None
-        if window is not None and self._frames % self.config.full_search_every != 0:
-            detection = self._detect_in(image, [window])
+        if window is not None:
+            if self._frames % self.config.full_search_every == 0 and not self._spread.busy:
+                self._spread.start(self.config, self._lens_scale, self._min_radius_px)
+            candidates, copy = self._spread.step(image, window)
+            detection = self._detect_in(image, [window, *candidates],
+                                        self._led_rings(image, copy) if copy is not None else None)
             if not detection.found:
                 detection = None  # lost: search the whole frame
+            elif not in_window(detection, window):
+                self.tracker.reset()  # another candidate won: its track starts afresh, without a velocity
         if detection is None:
+            self._spread.stop()
             copy = search_copy(image, self.config, self._lens_scale)
             windows = search(image, self.config, self._lens_scale, self._min_radius_px, copy)
             detection = self._detect_in(image, windows, self._led_rings(image, copy))

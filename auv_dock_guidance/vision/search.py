@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Generator, Sequence
 
 import cv2
 import numpy as np
@@ -45,8 +45,13 @@ def picture_area(small: np.ndarray, scale: float, black: float = 16.0) -> Box:
             int(math.ceil(x1 / scale)), int(math.ceil(y1 / scale)))
 
 
+Copy = tuple[np.ndarray, float]  # the search copy and its scale
+SearchSteps = Generator[None, np.ndarray, tuple[list[Window], Copy]]
+BANDS = 4  # slices of the search copy when the search is spread over frames
+
+
 def search(image: np.ndarray, config: DetectorConfig, lens_scale: float, min_radius_px: float,
-           copy: tuple[np.ndarray, float] | None = None) -> list[Window]:
+           copy: Copy | None = None) -> list[Window]:
     """Bright regions on a small copy: (full-resolution box, radius estimate) each.
 
     Regions are grouped at several gap widths, so the separate LEDs of a ring come out
@@ -57,9 +62,25 @@ def search(image: np.ndarray, config: DetectorConfig, lens_scale: float, min_rad
     ``lens_scale`` is the focal length relative to the paper's camera; ``min_radius_px``
     the smallest ring accepted (full resolution); ``copy`` the search copy when made already.
     """
+    steps = search_steps(config, lens_scale, min_radius_px, copy=copy)
+    next(steps)
+    try:
+        while True:
+            steps.send(image)
+    except StopIteration as done:
+        return done.value[0]
+
+
+def search_steps(config: DetectorConfig, lens_scale: float, min_radius_px: float, bands: int = 1,
+                 copy: Copy | None = None) -> SearchSteps:
+    """`search` in slices of about a millisecond: send a frame for each slice (the same one
+    throughout, or each new frame: the copy is then made of ``bands`` slices of successive
+    frames, where the marker has barely moved); the generator's value is the windows and
+    the search copy."""
     c = config
     lens = lens_scale
-    small, s = copy if copy is not None else search_copy(image, config, lens_scale)
+    image = yield
+    small, s = copy if copy is not None else (yield from _copy_steps(image, config, lens_scale, bands))
     gray = intensity(small)
     k = c.search_background_px | 1
     kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (k, k))
@@ -77,6 +98,7 @@ def search(image: np.ndarray, config: DetectorConfig, lens_scale: float, min_rad
     low, high = (cv2.threshold(tophat, level, 255, cv2.THRESH_BINARY)[1] for level in (floor, bright))
     for mask, gap_px in [*itertools.product([low], c.search_gaps_px), (high, 0), (high, 32)]:
         kernel_size = int(round(gap_px * lens * s)) | 1
+        image = yield
         grouped = mask if kernel_size <= 1 else cv2.dilate(
             mask, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (kernel_size, kernel_size))
         )
@@ -105,7 +127,23 @@ def search(image: np.ndarray, config: DetectorConfig, lens_scale: float, min_rad
             )
             if not _covered(box, radius, boxes):
                 boxes.append((box, radius))
-    return boxes
+    return boxes, (small, s)
+
+
+def _copy_steps(image: np.ndarray, config: DetectorConfig, lens_scale: float,
+                bands: int) -> Generator[None, np.ndarray, Copy]:
+    """The search copy, made ``bands`` slices of successive frames at a time where that is
+    exact (whole blocks of pixels: a slice of the frame gives exactly its slice of the copy)."""
+    s = min(1.0, config.search_scale / lens_scale)
+    factor = round(1.0 / s)
+    if bands == 1 or s == 1.0 or abs(factor * s - 1.0) > 1e-9 or image.shape[0] % factor or image.shape[1] % factor:
+        return search_copy(image, config, lens_scale)
+    small = np.empty((image.shape[0] // factor, image.shape[1] // factor, *image.shape[2:]), image.dtype)
+    edges = [round(i * small.shape[0] / bands) for i in range(bands + 1)]
+    for r0, r1 in itertools.pairwise(edges):
+        small[r0:r1] = cv2.resize(image[r0 * factor:r1 * factor], None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
+        image = yield
+    return small, s
 
 
 def _covered(box: Extent, radius: float, boxes: Sequence[tuple[Extent, float]]) -> bool:

@@ -3,9 +3,12 @@ import math
 import numpy as np
 import pytest
 
-from auv_dock_guidance.sim.scene import SceneSpec, render
+from auv_dock_guidance.sim.scene import Lamp, SceneSpec, render
+from auv_dock_guidance.vision import detector as detector_module
+from auv_dock_guidance.vision.config import lens_scale
 from auv_dock_guidance.vision.detection import Detection
 from auv_dock_guidance.vision.detector import Detector, DetectorConfig
+from auv_dock_guidance.vision.search import BANDS, search, search_steps
 from auv_dock_guidance.vision.tracking import WindowTracker
 
 FRAME = (1080, 1920)
@@ -73,7 +76,7 @@ def test_tracking_follows_the_marker_and_reacquires_it_after_a_loss(camera):
         assert detection.found and math.hypot(detection.u - truth.center_px[0], detection.v - truth.center_px[1]) < 2
 
 
-def test_the_full_search_replaces_a_reflection_that_took_over(camera):
+def test_the_full_search_replaces_a_reflection_that_took_over_without_stalling_a_frame(camera, monkeypatch):
     image, truth = render(camera, SceneSpec(marker_center_m=(0.0, 0.3, 8.0), surface_height_m=0.6,
                                             reflection_gain=1.0, seed=6))
     every = 5
@@ -81,5 +84,26 @@ def test_the_full_search_replaces_a_reflection_that_took_over(camera):
     detector.tracker.update(_seen(*truth.reflection_center_px, radius_px=70.0), 0.0)  # locked on the reflection
     first = detector.detect(image, 1 / 30)
     assert first.found and abs(first.v - truth.reflection_center_px[1]) < 3  # the window sees only it
-    chosen = [detector.detect(image, i / 30) for i in range(2, every + 1)]
-    assert abs(chosen[-1].v - truth.center_px[1]) < 3
+
+    def whole_frame_at_once(*args):
+        raise AssertionError("the whole frame was searched on one frame while tracking")
+
+    monkeypatch.setattr(detector_module, "search", whole_frame_at_once)
+    chosen = [detector.detect(image, i / 30) for i in range(2, 4 * every)]
+    switched = next(i for i, d in enumerate(chosen) if abs(d.v - truth.center_px[1]) < 3)
+    assert all(abs(d.v - truth.center_px[1]) < 3 for d in chosen[switched:])  # and it keeps the real ring
+
+
+def test_a_search_spread_over_frames_finds_what_one_frame_search_finds(camera):
+    image, _ = render(camera, SceneSpec(marker_center_m=(0.0, 0.3, 8.0), surface_height_m=0.6,
+                                        reflection_gain=1.0, lamps=(Lamp(300.0, 900.0, 5.0, 2.0),), seed=6))
+    config = DetectorConfig()
+    steps = search_steps(config, lens_scale(camera), 10.0, bands=BANDS)
+    next(steps)
+    slices = 0
+    with pytest.raises(StopIteration) as done:
+        while True:
+            steps.send(image)
+            slices += 1
+    assert done.value.value[0] == search(image, config, lens_scale(camera), 10.0)
+    assert slices >= BANDS + len(config.search_gaps_px)
