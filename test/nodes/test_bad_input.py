@@ -15,15 +15,13 @@ import pytest
 import rclpy
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PointStamped
-from node_harness import beside, spin_until  # test/nodes is on the path (pytest's prepend import)
-from rclpy.qos import QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import CameraInfo, Image, Imu
-from std_msgs.msg import Bool, Float64, UInt16MultiArray
+from node_harness import beside, detector_with_camera, spin_until  # test/nodes is on the path (pytest's prepend import)
+from sensor_msgs.msg import Image, Imu
+from std_msgs.msg import Float64, UInt16MultiArray
 
 from auv_dock_guidance.geometry.camera import paper_camera
 from auv_dock_guidance.link.protocol import TelemetryMsg, encode
 from auv_dock_guidance.nodes.conversions import array_to_image, camera_to_info, seconds_stamp
-from auv_dock_guidance.nodes.detector import DetectorNode
 from auv_dock_guidance.nodes.guidance import GuidanceNode
 from auv_dock_guidance.nodes.serial_bridge import SerialBridgeNode
 from auv_dock_guidance.sim.main_controller import MainControllerSim
@@ -31,13 +29,7 @@ from auv_dock_guidance.sim.scene import SceneSpec, render
 
 
 def test_detector_refuses_bad_frames_and_camera_info_and_keeps_detecting(ros, capfd):
-    detector = DetectorNode()
-    harness, executor = beside(detector)
-    newest = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
-    images = harness.create_publisher(Image, "camera/image_raw", newest)
-    infos = harness.create_publisher(CameraInfo, "camera/camera_info", 1)
-    detected: list[Bool] = []
-    harness.create_subscription(Bool, "dock/detected", detected.append, 10)
+    detector, harness, executor, images, infos, detected = detector_with_camera()
     camera = paper_camera().scaled(0.25)
     frame, _ = render(camera, SceneSpec(marker_center_m=(0.2, 0.1, 6.0), brightness=3.0, seed=1))
     problems = detector.problems.counts

@@ -4,10 +4,8 @@ by default and can be switched off or given another window."""
 from __future__ import annotations
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from node_harness import beside, spin_until  # test/nodes is on the path (pytest's prepend import)
+from node_harness import beside, detector_with_camera, spin_until  # test/nodes is on the path (pytest's prepend import)
 from rclpy.parameter import Parameter
-from rclpy.qos import QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import CameraInfo, Image
 from std_msgs.msg import Bool
 
 from auv_dock_guidance.geometry.camera import paper_camera
@@ -27,13 +25,7 @@ def _values(status: DiagnosticStatus) -> dict[str, str]:
 
 
 def test_frames_that_came_while_one_was_processed_are_skipped_and_reported(ros):
-    detector = DetectorNode()
-    harness, executor = beside(detector)
-    newest = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
-    images = harness.create_publisher(Image, "camera/image_raw", newest)
-    infos = harness.create_publisher(CameraInfo, "camera/camera_info", 1)
-    detected: list[Bool] = []
-    harness.create_subscription(Bool, "dock/detected", detected.append, 10)
+    detector, harness, executor, images, infos, detected = detector_with_camera()
     frame = _frame()
     try:
         spin_until(executor, lambda: images.get_subscription_count() > 0 and infos.get_subscription_count() > 0)
