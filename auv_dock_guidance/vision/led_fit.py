@@ -23,8 +23,8 @@ from auv_dock_guidance.geometry.camera import CameraModel
 from auv_dock_guidance.geometry.pose import Ellipse, pose_from_circle, pose_from_point
 from auv_dock_guidance.vision.config import DetectorConfig
 from auv_dock_guidance.vision.detection import Detection
-from auv_dock_guidance.vision.led_ring import LedRing, assemble_rings
-from auv_dock_guidance.vision.leds import LedBlob, find_leds, refined
+from auv_dock_guidance.vision.led_ring import LedRing, assemble_rings, ring_model
+from auv_dock_guidance.vision.leds import LedBlob, find_leds, refined, water_colour
 from auv_dock_guidance.vision.search import Box
 from auv_dock_guidance.vision.selection import CandidateShape
 
@@ -43,7 +43,8 @@ def find_led_rings(image: np.ndarray, copy: tuple[np.ndarray, float], camera: Ca
                    config: DetectorConfig, area: Box) -> list[LedRingCandidate]:
     """Rings of evenly spaced lights in the frame (``area``: the part with a picture)."""
     small, scale = copy
-    blobs = [refined(image, b) for b in find_leds(small, scale, config.search_background_px)]
+    water = water_colour(small)
+    blobs = [refined(image, b, water) for b in find_leds(small, scale, config.search_background_px)]
     if config.led_bgr is not None:
         blobs = [b for b in blobs if halo_matches(image, b, config.led_bgr)]
     if len(blobs) < 3:
@@ -113,7 +114,7 @@ def led_detection(candidate: LedRingCandidate, candidates: int, camera: CameraMo
     radius_m = config.marker_radius_m
     slots = np.array(ring.slots)
     (mu, mv), mr = cv2.minEnclosingCircle(candidate.leds_px.astype(np.float32))
-    ellipse = _affine_ellipse(candidate.leds_xy, slots, ring.count)
+    ellipse = _slot_ellipse(candidate.leds_xy, slots, ring.count)
     common: dict[str, Any] = dict(
         found=True, candidates=candidates, is_ring=True, mec_u=float(mu), mec_v=float(mv),
         mec_radius_px=float(mr), ellipse=ellipse, leds=tuple((float(u), float(v)) for u, v in candidate.leds_px),
@@ -140,11 +141,9 @@ def led_detection(candidate: LedRingCandidate, candidates: int, camera: CameraMo
                      **common)
 
 
-def _affine_ellipse(xy: np.ndarray, slots: np.ndarray, count: int) -> Ellipse:
-    """The ellipse c + a cos t + b sin t through the LEDs at their slots (least squares)."""
-    angle = 2.0 * np.pi * slots / count
-    design = np.column_stack([np.ones(len(slots)), np.cos(angle), np.sin(angle)])
-    (center, a, b), *_ = np.linalg.lstsq(design, xy, rcond=None)
+def _slot_ellipse(xy: np.ndarray, slots: np.ndarray, count: int) -> Ellipse:
+    """The ellipse c + a cos t + b sin t of the ring through the LEDs at their slots."""
+    center, a, b = ring_model(xy, slots, count)
     u, singular, _ = np.linalg.svd(np.column_stack([a, b]))
     return Ellipse(float(center[0]), float(center[1]), float(singular[0]), float(max(singular[1], 1e-12)),
                    math.atan2(u[1, 0], u[0, 0]))

@@ -9,7 +9,10 @@ included even when it lies outside the frame. A hypothesis counts the lights fou
 where it predicts them (within a share of the LED spacing) among the slots that fall
 inside the frame, and is refitted by least squares on all of them. It is a ring when
 enough of the expected LEDs are there: single lights and pairs make no triple, and a
-fixture, a caustic loop or the funnel's corners do not put lights at N even steps.
+fixture, a caustic loop or the funnel's corners do not put lights at N even steps. Of
+rings that could share lights, the one whose palest member glows most in colour is
+taken: coloured LEDs glow in their colour, while a spot on what they light (a white
+corner of the funnel beside blue LEDs) adds mostly that surface's white.
 
 With the LED count unknown, each triple's own curvature suggests the step, and the
 counts around it are tried; an unknown count needs more LEDs in view to be believed.
@@ -23,18 +26,21 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from auv_dock_guidance.vision.leds import LedBlob
+from auv_dock_guidance.vision.leds import LedBlob, glow_saturation
 
 MIN_LEDS_KNOWN_COUNT = 3  # a corner: three neighbouring LEDs of a ring of known count
-MIN_LEDS_UNKNOWN_COUNT = 5  # without the count, fewer could be any three lights in a curve
+MIN_LEDS_UNKNOWN_COUNT = 4  # without the count, three could be any three lights in a curve
 MIN_OCCUPANCY = 0.75  # share of the LEDs expected in view that must be found (some may be dead or hidden)
 MATCH_TOLERANCE = 0.3  # of the local LED spacing: how far a light may be from where three LEDs predict it
 FIT_TOLERANCE = 0.15  # the same, from the model fitted to all the ring's LEDs
 MAX_RESIDUAL = 0.1  # rms distance of the LEDs from the fitted model / LED spacing: centroid scatter only
+MAX_CIRCLE_RESIDUAL = 0.2  # the same from a circle through few LEDs: scatter and a tilt up to about 35 deg
 MAX_COUNT_UNKNOWN = 32  # beyond this many LEDs they merge into a strip; the outline path takes them
 SEED_LIGHTS = 16  # the strongest lights that seed hypotheses (all of them can confirm one)
 MAX_SPACING_SIZES = 30.0  # LEDs further apart than this many of their radii: specks that happen to line up
 ALIKE = 2.5  # the LEDs of one ring are alike: size and brightness within this factor of their median
+GLOW_SATURATION_RATIO = 1.6  # a ring whose palest glow is this much paler than another ring's: what LEDs light
+COLOURED_GLOW = 0.3  # glow saturation from which the LEDs are clearly coloured (white LEDs tell nothing this way)
 REFITS = 12  # hypotheses refitted per LED count, those the most lights confirm
 InView = Callable[[np.ndarray], np.ndarray]  # (M, 2) positions -> (M,) inside the frame
 _MIN_TURN_DEG, _MAX_TURN_DEG = 8.0, 90.0  # the ring's turn at each LED: 360/N, bent by tilt
@@ -53,6 +59,7 @@ class LedRing:
     expected: int  # slots whose LED falls inside the frame
     residual: float  # rms distance of the members from their slots / mean LED spacing
     light: float = 0.0  # the members' peaks added up
+    glow_saturation: float = float("nan")  # how coloured the palest member's glow is (NaN: not told)
 
     @property
     def occupancy(self) -> float:
@@ -77,6 +84,10 @@ def assemble_rings(points: np.ndarray, blobs: list[LedBlob], in_view: InView | N
                    led_count: int | None, max_rings: int = 3) -> list[LedRing]:
     """Rings of evenly spaced lights among the blobs, best first, each light in one ring at most.
 
+    A ring whose glow is far less coloured than the most coloured ring's is dropped: it is
+    made of what the LEDs light (the rim and corners of a white funnel), not of LEDs; a
+    reflection of the ring in the surface keeps the LEDs' colour and stays.
+
     ``points`` are the blobs' centres (N, 2) on the plane to fit on (undistorted pixels);
     ``in_view(xy)`` tells which predicted positions lie inside the frame (None: all do).
     ``led_count``: N when the user gave it; None when unknown.
@@ -89,6 +100,9 @@ def assemble_rings(points: np.ndarray, blobs: list[LedBlob], in_view: InView | N
             break
         rings.append(ring)
         free[list(ring.members)] = False
+    saturations = [r.glow_saturation for r in rings if not np.isnan(r.glow_saturation)]
+    if saturations and max(saturations) >= COLOURED_GLOW:
+        rings = [r for r in rings if not r.glow_saturation * GLOW_SATURATION_RATIO < max(saturations)]
     return rings
 
 
@@ -113,8 +127,14 @@ def _best_ring(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, in_vi
 
 
 def _better(a: LedRing, b: LedRing) -> bool:
-    """More LEDs, then more light: a ring of lights beats a ring of what they light."""
-    return (len(a.members), a.light) > (len(b.members), b.light)
+    """More LEDs; then the more coloured glow of its palest member (a ring of lights beats a
+    ring that takes in a spot they light) and more light; then the closer fit (the same
+    lights read as rings of different counts)."""
+    def rank(ring: LedRing) -> tuple[int, float, float, float]:
+        glow = -1.0 if np.isnan(ring.glow_saturation) else ring.glow_saturation
+        return len(ring.members), glow, ring.light, -ring.residual
+
+    return rank(a) > rank(b)
 
 
 def _triples(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray) -> np.ndarray:
@@ -148,6 +168,12 @@ def _alike(values: np.ndarray) -> np.ndarray:
     return np.maximum(values[:, None], values[None, :]) <= ALIKE * np.minimum(values[:, None], values[None, :])
 
 
+def _least_told(values: np.ndarray) -> float:
+    """Smallest of the values that are told (not NaN); NaN when none is."""
+    told = values[~np.isnan(values)]
+    return float(np.min(told)) if len(told) else float("nan")
+
+
 def _counts_to_try(points: np.ndarray, triples: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Per triple, the range of LED counts its turn suggests: a circle through three neighbouring
     LEDs turns by 360/N at each; tilt bends that by up to about the axis ratio either way."""
@@ -172,33 +198,43 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
                 in_view: InView | None, count_known: bool) -> list[LedRing]:
     """Rings of ``count`` LEDs grown from the triples and confirmed by the lights.
 
-    Each triple (slots -1, 0, 1) is grown outwards one step at a time on both sides: the
-    affine ring through the LEDs found so far predicts the next slot, and the nearest light
-    within a share of the local spacing is taken for it. One step of extrapolation at a
-    time keeps the prediction close (a whole ring extrapolated from three LEDs strays by
-    the perspective and the centroids' scatter); of several lights there, the brightest (a
-    light beats what it lights); a slot without a light (dead, hidden, out of the frame) is
-    passed over.
+    Each triple (slots -1, 0, 1, in either direction round the ring) must first lie on a
+    circle at three even steps of the N: few LEDs are fitted as a ring seen nearly face on
+    (a circle: centre, radius and turn), which three points over-determine, so a triple of
+    lights at other steps (every other LED taken for neighbours) or off any such arc is
+    dropped; a tilted ring still passes within the tolerance. It is then grown outwards one
+    step at a time on both sides: the ring through the LEDs found so far (the circle while
+    fewer than four, then the affine ring, which follows the tilt) predicts the next slot,
+    and the nearest light within a share of the local spacing is taken for it. One step of
+    extrapolation at a time keeps the prediction close; of several lights there, the
+    brightest (a light beats what it lights); a slot without a light (dead, hidden, out of
+    the frame) is passed over.
     """
     index = np.flatnonzero(free)
     if len(triples) == 0 or len(index) < 3:
         return []
-    hypotheses = len(triples)
+    triples = np.concatenate([triples, triples[:, ::-1]])  # both directions round the ring
     light = np.array([blobs[i].peak for i in index])
-    design = np.column_stack([np.ones(count), _unit_circle(np.arange(count), count)])  # (count, 3)
-    weight = np.zeros((hypotheses, count))
-    found = np.full((hypotheses, count), -1, np.int64)  # light index per slot
+    design = _affine_design(count)  # (count, 3)
+    circle = _circle_design(count)  # (count, 2, 4)
+    weight = np.zeros((len(triples), count))
+    found = np.full((len(triples), count), -1, np.int64)  # light index per slot
     for slot, column in ((count - 1, 0), (0, 1), (1, 2)):
         weight[:, slot] = 1.0
         found[:, slot] = triples[:, column]
+    on_arc = _circle_residual(_fit_circles(weight, points[found], circle), weight, points[found], circle) \
+        <= MAX_CIRCLE_RESIDUAL
+    weight, found = weight[on_arc], found[on_arc]
+    hypotheses = len(found)
     for distance in range(2, count // 2 + 1):
-        normal = np.einsum("hs,si,sj->hij", weight, design, design)
-        target = np.einsum("hs,si,hsj->hij", weight, design, points[np.maximum(found, 0)])
-        coefficients = np.linalg.solve(normal + 1e-9 * np.eye(3), target)  # (H, 3, 2): c, a, b
+        affine = np.linalg.solve(np.einsum("hs,si,sj->hij", weight, design, design) + 1e-9 * np.eye(3),
+                                 np.einsum("hs,si,hsj->hij", weight, design, points[np.maximum(found, 0)]))
+        circles = _fit_circles(weight, points[np.maximum(found, 0)], circle)
+        models = (weight.sum(axis=1) < 4, circles, affine)
         sides = ((distance % count, distance - 1), ((-distance) % count, (1 - distance) % count))
         for slot, previous in sides[: 1 if 2 * distance == count else 2]:
-            predicted = design[slot] @ coefficients  # (H, 2)
-            spacing = np.linalg.norm(predicted - design[previous] @ coefficients, axis=1)
+            predicted = _predict(slot, models, circle, design)  # (H, 2)
+            spacing = np.linalg.norm(predicted - _predict(previous, models, circle, design), axis=1)
             gap = np.linalg.norm(predicted[:, None, :] - points[index][None, :, :], axis=2)  # (H, F)
             taken = (found[:, :, None] == index[None, None, :]).any(axis=1)
             within = ~taken & (gap <= MATCH_TOLERANCE * spacing[:, None])
@@ -219,10 +255,45 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
             continue
         seen.add(members)
         ring = _refit(points, blobs, free, (found[h, slots], slots), count, in_view)
-        if (ring is not None and len(ring.members) >= minimum and ring.occupancy >= MIN_OCCUPANCY
-                and ring.residual <= MAX_RESIDUAL):
+        if ring is not None and len(ring.members) >= minimum and ring.occupancy >= MIN_OCCUPANCY:
             rings.append(ring)
     return rings
+
+
+def _predict(slot: int, models: tuple[np.ndarray, np.ndarray, np.ndarray], circle: np.ndarray,
+             design: np.ndarray) -> np.ndarray:
+    """Where each hypothesis puts a slot (H, 2): its circle while it has few LEDs, else its affine ring."""
+    few, circles, affine = models
+    return np.where(few[:, None], np.einsum("ri,hi->hr", circle[slot], circles), design[slot] @ affine)
+
+
+def _affine_design(count: int) -> np.ndarray:
+    """Rows (1, cos, sin) of each slot: the affine ring c + a cos + b sin is linear in c, a, b."""
+    return np.column_stack([np.ones(count), _unit_circle(np.arange(count), count)])
+
+
+def _circle_design(count: int) -> np.ndarray:
+    """(count, 2, 4): the x and y rows of each slot for a circle seen face on, linear in its
+    centre and (A, B) = radius * (cos, sin) of its turn: x = cx + A cos - B sin, y = cy + A sin + B cos."""
+    cos, sin = _unit_circle(np.arange(count), count).T
+    ones, zeros = np.ones(count), np.zeros(count)
+    return np.stack([np.column_stack([ones, zeros, cos, -sin]), np.column_stack([zeros, ones, sin, cos])], axis=1)
+
+
+def _fit_circles(weight: np.ndarray, points: np.ndarray, circle: np.ndarray) -> np.ndarray:
+    """Least-squares circles (H, 4) through each hypothesis's lights (``points`` (H, count, 2) by slot)."""
+    normal = np.einsum("hs,sri,srj->hij", weight, circle, circle)
+    target = np.einsum("hs,sri,hsr->hi", weight, circle, points)
+    return np.linalg.solve(normal + 1e-9 * np.eye(4), target[..., None])[..., 0]
+
+
+def _circle_residual(circles: np.ndarray, weight: np.ndarray, points: np.ndarray, circle: np.ndarray) -> np.ndarray:
+    """Rms distance of each hypothesis's lights from its circle's slots, over the LED spacing."""
+    predicted = np.einsum("sri,hi->hsr", circle, circles)
+    squared = (np.sum((predicted - points) ** 2, axis=2) * weight).sum(axis=1) / np.maximum(weight.sum(axis=1), 1)
+    count = circle.shape[0]
+    spacing = 2.0 * np.hypot(circles[:, 2], circles[:, 3]) * np.sin(np.pi / count)
+    return np.sqrt(squared) / np.maximum(spacing, 1e-9)
 
 
 def _match_positions(points: np.ndarray, light: np.ndarray, free: np.ndarray, predicted: np.ndarray,
@@ -249,9 +320,10 @@ def _match_positions(points: np.ndarray, light: np.ndarray, free: np.ndarray, pr
 def _refit(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, match: tuple[np.ndarray, np.ndarray],
            count: int, in_view: InView | None) -> LedRing | None:
     """The ring through the matched lights at their slots, re-matched as the model tightens
-    (an affine image of the circle, from 5 LEDs its perspective image, so the final residual
-    is the centroids' scatter, not the model's), keeping only lights alike in size and
-    brightness: the ring's LEDs, not what they light."""
+    (a circle through few LEDs, from 5 LEDs the ring's perspective image, so the final
+    residual is the centroids' scatter, not the model's), keeping only lights alike in size,
+    brightness and glow: the ring's LEDs, not what they light. None when the lights stray
+    from the model by more than centroid scatter (and, for a circle, tilt) allow."""
     lights, slots = match
     expected = 0
     light = np.array([b.peak for b in blobs])
@@ -270,7 +342,9 @@ def _refit(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, match: tu
     if spacing > MAX_SPACING_SIZES * float(np.median([blobs[i].radius_px for i in lights])):
         return None
     residual = float(np.sqrt(np.mean(np.sum((points[lights] - model[slots]) ** 2, axis=1)))) / max(spacing, 1e-9)
-    center, a, b = _affine(points[lights], slots, count)
+    if residual > (MAX_RESIDUAL if len(lights) >= 5 else MAX_CIRCLE_RESIDUAL):
+        return None
+    center, a, b = ring_model(points[lights], slots, count)
     homography = _homography(points[lights], slots, count) if len(lights) >= 5 else None
     if homography is not None:
         projected = homography @ np.array([0.0, 0.0, 1.0])
@@ -280,6 +354,7 @@ def _refit(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, match: tu
         center=(float(center[0]), float(center[1])), axis_a=(float(a[0]), float(a[1])),
         axis_b=(float(b[0]), float(b[1])), expected=expected, residual=residual,
         light=float(sum(blobs[i].peak for i in lights)),
+        glow_saturation=_least_told(np.array([glow_saturation(blobs[i].glow_bgr) for i in lights])),
     )
 
 
@@ -308,6 +383,20 @@ def _affine(xy: np.ndarray, slots: np.ndarray, count: int) -> tuple[np.ndarray, 
     return center, a, b
 
 
+def ring_model(xy: np.ndarray, slots: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Centre and conjugate half-diameters (c, a, b) of the ring through lights at their slots:
+    the affine ring from five lights, which follows any tilt; a circle (a ring seen nearly face
+    on) through fewer, where the affine ring would fit anything exactly."""
+    if len(xy) >= 5:
+        return _affine(xy, slots, count)
+    weight = np.zeros((1, count))
+    by_slot = np.zeros((1, count, 2))
+    weight[0, slots] = 1.0
+    by_slot[0, slots] = xy
+    cx, cy, a0, b0 = _fit_circles(weight, by_slot, _circle_design(count))[0]
+    return np.array([cx, cy]), np.array([a0, b0]), np.array([-b0, a0])
+
+
 def _homography(xy: np.ndarray, slots: np.ndarray, count: int) -> np.ndarray | None:
     """The plane-to-image homography of the unit circle's slots (least squares, DLT)."""
     homography, _ = cv2.findHomography(_unit_circle(slots, count), xy, 0)
@@ -325,5 +414,5 @@ def _slot_model(xy: np.ndarray, slots: np.ndarray, count: int) -> np.ndarray | N
         if np.any(np.abs(image[:, 2]) < 1e-9) or np.ptp(np.sign(image[:, 2])) > 0:
             return None  # the ring would cross the horizon: not a ring seen from in front
         return image[:, :2] / image[:, 2:]
-    center, a, b = _affine(xy, slots, count)
+    center, a, b = ring_model(xy, slots, count)
     return _positions(center, a, b, count)

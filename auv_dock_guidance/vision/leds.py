@@ -12,8 +12,11 @@ around it) is largest, measured on an integral image; ridges (cables, rims, edge
 dropped by the ratio of the curvatures at that scale, and points inside a bright region
 (texture on the lit funnel) by their surroundings: a point source is darker all round,
 over most of a circle a few blob radii out, and nothing bright passes through it. A blob
-of the ring is later reduced to an intensity-weighted centroid at full resolution
-(`refined`).
+of the ring is later reduced to an intensity-weighted centroid at full resolution, and
+its glow measured (`refined`): the colour of the light it adds around its core. An LED
+glows in its own colour; a bright spot on what the LEDs light (a corner of a white
+funnel, a bolt on its rim) adds light of that surface's colour, and the LEDs of one ring,
+being one kind of LED, glow alike.
 """
 
 from __future__ import annotations
@@ -30,6 +33,8 @@ _MAX_CURVATURE_RATIO = 10.0  # curvature ratio above which a peak is a ridge (Lo
 _SURROUND_RADII = 2.5  # blob radii out to the circle that must be mostly darker
 _SURROUND_SAMPLES = 16
 _ANGLES = np.linspace(0.0, 2.0 * math.pi, _SURROUND_SAMPLES, endpoint=False)
+_GLOW_INNER, _GLOW_OUTER = 1.2, 2.5  # annulus where a blob's glow is measured, in blob radii
+_GLOW_KNOWN = 10.0  # grey levels of glow below which its colour is not told
 
 
 @dataclass(frozen=True)
@@ -41,6 +46,7 @@ class LedBlob:
     radius_px: float  # half width of its best box, full-resolution pixels
     peak: float  # grey levels of its core above its surroundings (mean of the channels)
     strength: float  # centre-surround contrast in noise deviations
+    glow_bgr: tuple[float, float, float] | None = None  # light it adds around its core over the water (`refined`)
 
 
 def mean_channel(image: np.ndarray) -> np.ndarray:
@@ -156,10 +162,46 @@ def _surround_contrast(gray: np.ndarray, x: np.ndarray, y: np.ndarray, radius: n
     return np.where(point_source, core - typical, np.nan)
 
 
-def refined(image: np.ndarray, blob: LedBlob) -> LedBlob:
-    """The blob with its centroid measured at full resolution."""
+def refined(image: np.ndarray, blob: LedBlob, water_bgr: np.ndarray | None = None) -> LedBlob:
+    """The blob with its centroid measured at full resolution and, given the water's colour
+    (``water_bgr``, the frame's typical pixel), its glow."""
     u, v = _centroid(image, blob.u, blob.v, blob.radius_px)
-    return LedBlob(u, v, blob.radius_px, blob.peak, blob.strength)
+    glow = None if water_bgr is None or image.ndim == 2 else _glow(image, u, v, blob.radius_px, water_bgr)
+    return LedBlob(u, v, blob.radius_px, blob.peak, blob.strength, glow)
+
+
+def water_colour(small: np.ndarray) -> np.ndarray:
+    """The typical colour of a frame (its median pixel): the water most lights are seen against."""
+    if small.ndim == 2:
+        return np.array([float(np.median(small[::4, ::4]))] * 3)
+    return np.median(small[::4, ::4].reshape(-1, 3), axis=0).astype(np.float64)
+
+
+def _glow(image: np.ndarray, u: float, v: float, radius: float, water_bgr: np.ndarray) -> tuple[float, float, float]:
+    """The light a blob adds around its core: mean colour over the water of the brighter half of
+    an annulus just outside the core (1.2-2.5 radii). The brighter half is the glow's side where
+    the light sits against something bright (the funnel): there the glow, not the surface, is seen."""
+    h, w = image.shape[:2]
+    r = max(2.0, radius)
+    x0, x1 = max(0, int(u - _GLOW_OUTER * r)), min(w, int(u + _GLOW_OUTER * r) + 1)
+    y0, y1 = max(0, int(v - _GLOW_OUTER * r)), min(h, int(v + _GLOW_OUTER * r) + 1)
+    yy, xx = np.mgrid[y0:y1, x0:x1]
+    distance = np.hypot(xx - u, yy - v)
+    annulus = image[y0:y1, x0:x1][(distance >= _GLOW_INNER * r) & (distance <= _GLOW_OUTER * r)].astype(np.float64)
+    if len(annulus) == 0:
+        return 0.0, 0.0, 0.0
+    brightest = annulus.max(axis=1)
+    excess = annulus[brightest >= np.median(brightest)].mean(axis=0) - water_bgr
+    return float(excess[0]), float(excess[1]), float(excess[2])
+
+
+def glow_saturation(glow_bgr: tuple[float, float, float] | None) -> float:
+    """How coloured a glow is: 0 for white light, 1 for light of one channel only; NaN where it
+    is not told (no colour image, or too little glow to tell: a far, faint LED)."""
+    top = max(glow_bgr) if glow_bgr is not None else 0.0
+    if glow_bgr is None or top <= 0.0 or math.hypot(*glow_bgr) < _GLOW_KNOWN:
+        return math.nan
+    return (top - max(0.0, min(glow_bgr))) / top
 
 
 def _centroid(image: np.ndarray, u: float, v: float, radius: float) -> tuple[float, float]:
