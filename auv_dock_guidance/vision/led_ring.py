@@ -29,7 +29,8 @@ import numpy as np
 from auv_dock_guidance.vision.leds import LedBlob, glow_saturation
 
 MIN_LEDS_KNOWN_COUNT = 3  # a corner: three neighbouring LEDs of a ring of known count
-MIN_LEDS_UNKNOWN_COUNT = 4  # without the count, three could be any three lights in a curve
+MIN_LEDS_UNKNOWN_COUNT = 5  # without the count, fewer could be any lights that happen to lie on a circle...
+MIN_COLOURED_LEDS_UNKNOWN_COUNT = 4  # ...unless they all glow clearly in colour (lamps and glints are white)
 MIN_OCCUPANCY = 0.75  # share of the LEDs expected in view that must be found (some may be dead or hidden)
 MATCH_TOLERANCE = 0.3  # of the local LED spacing: how far a light may be from where three LEDs predict it
 FIT_TOLERANCE = 0.15  # the same, from the model fitted to all the ring's LEDs
@@ -242,7 +243,7 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
             hit = within[np.arange(hypotheses), brightest] & (found[:, slot] < 0)
             found[hit, slot] = index[brightest[hit]]
             weight[hit, slot] = 1.0
-    minimum = MIN_LEDS_KNOWN_COUNT if count_known else MIN_LEDS_UNKNOWN_COUNT
+    minimum = MIN_LEDS_KNOWN_COUNT if count_known else MIN_COLOURED_LEDS_UNKNOWN_COUNT
     sizes = (found >= 0).sum(axis=1)
     seen: set[tuple[int, ...]] = set()
     rings = []
@@ -255,7 +256,10 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
             continue
         seen.add(members)
         ring = _refit(points, blobs, free, (found[h, slots], slots), count, in_view)
-        if ring is not None and len(ring.members) >= minimum and ring.occupancy >= MIN_OCCUPANCY:
+        if ring is None or ring.occupancy < MIN_OCCUPANCY:
+            continue
+        coloured = ring.glow_saturation >= COLOURED_GLOW  # False when not told (NaN)
+        if len(ring.members) >= (minimum if count_known or coloured else MIN_LEDS_UNKNOWN_COUNT):
             rings.append(ring)
     return rings
 
