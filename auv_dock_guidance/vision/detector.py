@@ -26,9 +26,9 @@ from auv_dock_guidance.vision.detection import Detection
 from auv_dock_guidance.vision.edges import BilateralParams
 from auv_dock_guidance.vision.fit import fit_region
 from auv_dock_guidance.vision.image_input import as_bgr_or_gray8
-from auv_dock_guidance.vision.led_fit import LedRingCandidate, find_led_rings, led_detection
+from auv_dock_guidance.vision.led_fit import FrameView, LedRingCandidate, find_led_rings, led_detection
 from auv_dock_guidance.vision.refine import Refiner, Region, add_region
-from auv_dock_guidance.vision.search import Window, picture_area, search, search_copy
+from auv_dock_guidance.vision.search import Window, search, search_copy
 from auv_dock_guidance.vision.selection import choose
 from auv_dock_guidance.vision.threshold import AdaptiveThreshold
 from auv_dock_guidance.vision.tracking import UNSTAMPED_FRAME_S, SpreadSearch, WindowTracker, in_window
@@ -50,12 +50,14 @@ class Detector:
         self._last: Detection | None = None  # the previous frame's marker
         self.tracker = WindowTracker()
         self._spread = SpreadSearch()  # the whole frame's search while tracking, a slice per frame
+        self._view: FrameView | None = None  # the last whole frame's picture area and water, for windows
         self._frames = 0
 
     def reset(self) -> None:
         self.threshold.reset()
         self.tracker.reset()
         self._spread.stop()
+        self._view = None
         self._last = None
         self._frames = 0
 
@@ -72,8 +74,8 @@ class Detector:
             if self._frames % self.config.full_search_every == 0 and not self._spread.busy:
                 self._spread.start(self.config, self._lens_scale, self._min_radius_px)
             candidates, copy = self._spread.step(image, window)
-            detection = self._detect_in(image, [window, *candidates],
-                                        self._led_rings(image, copy) if copy is not None else None)
+            rings = self._led_rings(image, copy) if copy is not None else self._led_rings_in(image, window)
+            detection = self._detect_in(image, [window, *candidates], rings)
             if not detection.found:
                 detection = None  # lost: search the whole frame
             elif not in_window(detection, window):
@@ -140,10 +142,23 @@ class Detector:
         return image
 
     def _led_rings(self, image: np.ndarray, copy: tuple[np.ndarray, float]) -> list[LedRingCandidate]:
-        """Rings of evenly spaced LEDs in the frame, unless the marker is a continuous strip."""
+        """Rings of evenly spaced LEDs in the frame (``copy``: its search copy), unless the
+        marker is a continuous strip."""
         if self.config.led_count == 0:
             return []
-        rings = find_led_rings(image, copy, self.camera, self.config, picture_area(*copy))
+        self._view = FrameView.of(copy)
+        return self._large_enough(find_led_rings(image, copy, self.camera, self.config, self._view))
+
+    def _led_rings_in(self, image: np.ndarray, window: Window) -> list[LedRingCandidate]:
+        """Rings of evenly spaced LEDs in a tracking window: the same evidence as in the whole
+        frame, at a cost that follows the window's size, not the frame's."""
+        if self.config.led_count == 0 or self._view is None:
+            return []
+        box, _ = window
+        copy = search_copy(image, self.config, self._lens_scale, box)
+        return self._large_enough(find_led_rings(image, copy, self.camera, self.config, self._view, box[:2]))
+
+    def _large_enough(self, rings: list[LedRingCandidate]) -> list[LedRingCandidate]:
         return [r for r in rings if r.shape.radius_px >= max(self.config.selection.min_radius_px, self._min_radius_px)]
 
     def _detect_in(self, image: np.ndarray, windows: list[Window],

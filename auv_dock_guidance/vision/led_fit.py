@@ -25,7 +25,7 @@ from auv_dock_guidance.vision.config import DetectorConfig
 from auv_dock_guidance.vision.detection import Detection
 from auv_dock_guidance.vision.led_ring import LedRing, assemble_rings, ring_model
 from auv_dock_guidance.vision.leds import LedBlob, find_leds, refined, water_colour
-from auv_dock_guidance.vision.search import Box
+from auv_dock_guidance.vision.search import Box, picture_area
 from auv_dock_guidance.vision.selection import CandidateShape
 
 
@@ -39,12 +39,27 @@ class LedRingCandidate:
     shape: CandidateShape  # for the choice among candidates (largest, lowest on ties)
 
 
+@dataclass(frozen=True)
+class FrameView:
+    """What a search of the whole frame tells the searches of parts of it: the part with a
+    picture (``area``, full-resolution box) and the water's colour, the glows' reference."""
+
+    area: Box
+    water_bgr: np.ndarray
+
+    @classmethod
+    def of(cls, copy: tuple[np.ndarray, float]) -> FrameView:
+        """From the search copy of the whole frame."""
+        return cls(picture_area(*copy), water_colour(copy[0]))
+
+
 def find_led_rings(image: np.ndarray, copy: tuple[np.ndarray, float], camera: CameraModel | None,
-                   config: DetectorConfig, area: Box) -> list[LedRingCandidate]:
-    """Rings of evenly spaced lights in the frame (``area``: the part with a picture)."""
+                   config: DetectorConfig, view: FrameView, origin: tuple[int, int] = (0, 0)) -> list[LedRingCandidate]:
+    """Rings of evenly spaced lights in the frame, or in the part of it whose search copy is
+    ``copy`` and whose top left corner is ``origin`` (a tracking window)."""
     small, scale = copy
-    water = water_colour(small)
-    blobs = [refined(image, b, water) for b in find_leds(small, scale, config.search_background_px)]
+    found = find_leds(small, scale, config.search_background_px, origin=origin)
+    blobs = [refined(image, b, view.water_bgr) for b in found]
     if config.led_bgr is not None:
         blobs = [b for b in blobs if halo_matches(image, b, config.led_bgr)]
     if len(blobs) < 3:
@@ -60,7 +75,7 @@ def find_led_rings(image: np.ndarray, copy: tuple[np.ndarray, float], camera: Ca
     if len(blobs) < 3:
         return []
     margin = float(np.median([b.radius_px for b in blobs]))
-    x0, y0, x1, y1 = area
+    x0, y0, x1, y1 = view.area
 
     def in_view(plane: np.ndarray) -> np.ndarray:
         """Whether a point on the fitting plane shows in the picture (an LED's size clear of its edge)."""

@@ -56,10 +56,12 @@ def mean_channel(image: np.ndarray) -> np.ndarray:
     return cv2.transform(image, np.full((1, 3), 1.0 / 3.0, np.float32))
 
 
-def find_leds(small: np.ndarray, scale: float, background_px: int, max_count: int = 48) -> list[LedBlob]:
+def find_leds(small: np.ndarray, scale: float, background_px: int, max_count: int = 48,
+              origin: tuple[int, int] = (0, 0)) -> list[LedBlob]:
     """Compact bright blobs, strongest first, at most ``max_count``; centres from the copy.
 
-    ``small`` is the search copy of the frame at ``scale``; ``background_px`` the width of
+    ``small`` is the search copy at ``scale`` of the frame, or of the part of it whose top
+    left corner is ``origin`` (full-resolution pixels); ``background_px`` the width of
     the top-hat's opening on it (wider than any LED, narrower than the lit funnel).
     """
     gray = mean_channel(small)
@@ -91,7 +93,7 @@ def find_leds(small: np.ndarray, scale: float, background_px: int, max_count: in
     blobs: list[LedBlob] = []
     for i in order:
         r = float(radius[i]) / scale
-        u, v = (x[i] + 0.5) / scale - 0.5, (y[i] + 0.5) / scale - 0.5
+        u, v = (x[i] + 0.5) / scale - 0.5 + origin[0], (y[i] + 0.5) / scale - 0.5 + origin[1]
         if any(math.hypot(u - b.u, v - b.v) < max(b.radius_px, r) for b in blobs):
             continue  # the same light seen from another of its maxima
         blobs.append(LedBlob(float(u), float(v), r, float(peak[i]), float(strength[i])))

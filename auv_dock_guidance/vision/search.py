@@ -24,11 +24,13 @@ Window = tuple[Box, float]  # a box to refine and the radius the ring is expecte
 Extent = tuple[float, float, float, float]  # x0, y0, x1, y1 of a region, full-resolution px
 
 
-def search_copy(image: np.ndarray, config: DetectorConfig, lens_scale: float) -> tuple[np.ndarray, float]:
-    """The small copy the search works on, and its scale: the ring keeps its size in it,
-    whatever the lens."""
+def search_copy(image: np.ndarray, config: DetectorConfig, lens_scale: float,
+                box: Box | None = None) -> tuple[np.ndarray, float]:
+    """The small copy the search works on (of the whole frame, or of ``box`` in it), and its
+    scale: the ring keeps its size in it, whatever the lens."""
     s = min(1.0, config.search_scale / lens_scale)
-    return (image if s == 1.0 else cv2.resize(image, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)), s
+    part = image if box is None else image[box[1]:box[3], box[0]:box[2]]
+    return (part if s == 1.0 else cv2.resize(part, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)), s
 
 
 def picture_area(small: np.ndarray, scale: float, black: float = 16.0) -> Box:

@@ -6,7 +6,6 @@ import pytest
 from auv_dock_guidance.vision.led_ring import assemble_rings
 from auv_dock_guidance.vision.leds import LedBlob
 
-
 BLUE_GLOW = (200.0, 90.0, 30.0)  # a blue LED's light over the water
 WHITE_GLOW = (190.0, 150.0, 140.0)  # a white surface beside it, lit by it
 

@@ -2,6 +2,7 @@ import math
 
 import numpy as np
 import pytest
+from dock_frames import PAL, Dock, render_dock, ring_center_px
 
 from auv_dock_guidance.sim.scene import Lamp, SceneSpec, render
 from auv_dock_guidance.vision import detector as detector_module
@@ -107,3 +108,19 @@ def test_a_search_spread_over_frames_finds_what_one_frame_search_finds(camera):
             slices += 1
     assert done.value.value[0] == search(image, config, lens_scale(camera), 10.0)
     assert slices >= BANDS + len(config.search_gaps_px)
+
+
+def test_a_ring_of_separate_leds_is_tracked_in_its_window_with_the_same_evidence(monkeypatch):
+    docks = [Dock(center_m=(0.25 - 0.03 * i, 0.1, 2.2 - 0.04 * i), normal=(0.2, -0.1, -1.0), seed=i) for i in range(6)]
+    detector = Detector(PAL, DetectorConfig(led_count=8, tracking=True, full_search_every=30))
+    first = detector.detect(render_dock(docks[0]), 0.0)
+    assert first.found and len(first.leds) == 8
+
+    def whole_frame_at_once(*args):
+        raise AssertionError("the whole frame was searched while the ring was in its window")
+
+    monkeypatch.setattr(detector_module, "search", whole_frame_at_once)
+    for i, dock in enumerate(docks[1:], start=1):
+        detection = detector.detect(render_dock(dock), i / 30)
+        assert detection.found and len(detection.leds) == 8
+        assert math.hypot(detection.u - ring_center_px(dock)[0], detection.v - ring_center_px(dock)[1]) < 2.0
