@@ -24,7 +24,7 @@ from auv_dock_guidance.geometry.pose import Ellipse, pose_from_circle, pose_from
 from auv_dock_guidance.vision.config import DetectorConfig
 from auv_dock_guidance.vision.detection import Detection
 from auv_dock_guidance.vision.led_ring import LedRing, assemble_rings, ring_model
-from auv_dock_guidance.vision.leds import LedBlob, find_leds, refined, water_colour
+from auv_dock_guidance.vision.leds import LedBlob, find_leds, glow_matches, refined, water_colour
 from auv_dock_guidance.vision.search import Box, picture_area
 from auv_dock_guidance.vision.selection import CandidateShape
 
@@ -61,7 +61,7 @@ def find_led_rings(image: np.ndarray, copy: tuple[np.ndarray, float], camera: Ca
     found = find_leds(small, scale, config.search_background_px, origin=origin)
     blobs = [refined(image, b, view.water_bgr) for b in found]
     if config.led_bgr is not None:
-        blobs = [b for b in blobs if halo_matches(image, b, config.led_bgr)]
+        blobs = [b for b in blobs if glow_matches(b.glow_bgr, config.led_bgr)]
     if len(blobs) < 3:
         return []
     pixels = np.array([(b.u, b.v) for b in blobs])
@@ -85,29 +85,6 @@ def find_led_rings(image: np.ndarray, copy: tuple[np.ndarray, float], camera: Ca
 
     rings = assemble_rings(xy * focal, blobs, in_view, config.led_count)
     return [_candidate(ring, blobs, pixels, xy) for ring in rings]
-
-
-def halo_matches(image: np.ndarray, blob: LedBlob, bgr: tuple[float, float, float],
-                 min_cosine: float = 0.85) -> bool:
-    """Whether the glow around a blob (2-5 of its radii out, over the water beyond) has the LEDs'
-    colour: the direction of the excess light in colour space, whatever its strength. Close to
-    the core every channel saturates; the glow further out keeps the LED's colour, while light
-    from a white funnel or a lamp of another colour points elsewhere."""
-    if image.ndim == 2:
-        return True
-    h, w = image.shape[:2]
-    r = max(2.0, blob.radius_px)
-    x0, x1 = max(0, int(blob.u - 8 * r)), min(w, int(blob.u + 8 * r) + 1)
-    y0, y1 = max(0, int(blob.v - 8 * r)), min(h, int(blob.v + 8 * r) + 1)
-    patch = image[y0:y1, x0:x1].astype(np.float32)
-    yy, xx = np.mgrid[y0:y1, x0:x1]
-    distance = np.hypot(xx - blob.u, yy - blob.v)
-    glow, water = (distance >= 2 * r) & (distance < 5 * r), distance >= 6 * r
-    if not glow.any() or not water.any():
-        return True
-    excess = np.median(patch[glow], axis=0) - np.median(patch[water], axis=0)
-    norm = float(np.linalg.norm(excess)) * float(np.linalg.norm(bgr))
-    return norm > 0 and float(excess @ np.array(bgr, np.float32)) / norm >= min_cosine
 
 
 def _candidate(ring: LedRing, blobs: list[LedBlob], pixels: np.ndarray, xy: np.ndarray) -> LedRingCandidate:

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from auv_dock_guidance.vision.leds import LedBlob, glow_saturation
+from auv_dock_guidance.vision.leds import COLOURED_GLOW_SATURATION, LedBlob, glow_saturation
 
 MIN_LEDS_KNOWN_COUNT = 3  # a corner: three neighbouring LEDs of a ring of known count
 MIN_LEDS_UNKNOWN_COUNT = 5  # without the count, fewer could be any lights that happen to lie on a circle...
@@ -41,7 +41,6 @@ SEED_LIGHTS = 16  # the strongest lights that seed hypotheses (all of them can c
 MAX_SPACING_SIZES = 30.0  # LEDs further apart than this many of their radii: specks that happen to line up
 ALIKE = 2.5  # the LEDs of one ring are alike: size and brightness within this factor of their median
 GLOW_SATURATION_RATIO = 1.6  # a ring whose palest glow is this much paler than another ring's: what LEDs light
-COLOURED_GLOW = 0.3  # glow saturation from which the LEDs are clearly coloured (white LEDs tell nothing this way)
 REFITS = 12  # hypotheses refitted per LED count, those the most lights confirm
 InView = Callable[[np.ndarray], np.ndarray]  # (M, 2) positions -> (M,) inside the frame
 _MIN_TURN_DEG, _MAX_TURN_DEG = 8.0, 90.0  # the ring's turn at each LED: 360/N, bent by tilt
@@ -102,7 +101,7 @@ def assemble_rings(points: np.ndarray, blobs: list[LedBlob], in_view: InView | N
         rings.append(ring)
         free[list(ring.members)] = False
     saturations = [r.glow_saturation for r in rings if not np.isnan(r.glow_saturation)]
-    if saturations and max(saturations) >= COLOURED_GLOW:
+    if saturations and max(saturations) >= COLOURED_GLOW_SATURATION:
         rings = [r for r in rings if not r.glow_saturation * GLOW_SATURATION_RATIO < max(saturations)]
     return rings
 
@@ -258,7 +257,7 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
         ring = _refit(points, blobs, free, (found[h, slots], slots), count, in_view)
         if ring is None or ring.occupancy < MIN_OCCUPANCY:
             continue
-        coloured = ring.glow_saturation >= COLOURED_GLOW  # False when not told (NaN)
+        coloured = ring.glow_saturation >= COLOURED_GLOW_SATURATION  # False when not told (NaN)
         if len(ring.members) >= (minimum if count_known or coloured else MIN_LEDS_UNKNOWN_COUNT):
             rings.append(ring)
     return rings
@@ -324,10 +323,9 @@ def _match_positions(points: np.ndarray, light: np.ndarray, free: np.ndarray, pr
 def _refit(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, match: tuple[np.ndarray, np.ndarray],
            count: int, in_view: InView | None) -> LedRing | None:
     """The ring through the matched lights at their slots, re-matched as the model tightens
-    (a circle through few LEDs, from 5 LEDs the ring's perspective image, so the final
-    residual is the centroids' scatter, not the model's), keeping only lights alike in size,
-    brightness and glow: the ring's LEDs, not what they light. None when the lights stray
-    from the model by more than centroid scatter (and, for a circle, tilt) allow."""
+    (`_ring_fit`; from 5 LEDs the ring's perspective image, so the final residual is the
+    centroids' scatter, not the model's), keeping only lights alike in size and brightness.
+    None when the lights stray from the model by more than its tolerance."""
     lights, slots = match
     expected = 0
     light = np.array([b.peak for b in blobs])
@@ -346,9 +344,9 @@ def _refit(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, match: tu
     if spacing > MAX_SPACING_SIZES * float(np.median([blobs[i].radius_px for i in lights])):
         return None
     residual = float(np.sqrt(np.mean(np.sum((points[lights] - model[slots]) ** 2, axis=1)))) / max(spacing, 1e-9)
-    if residual > (MAX_RESIDUAL if len(lights) >= 5 else MAX_CIRCLE_RESIDUAL):
+    (center, a, b), tolerance = _ring_fit(points[lights], slots, count)
+    if residual > tolerance:
         return None
-    center, a, b = ring_model(points[lights], slots, count)
     homography = _homography(points[lights], slots, count) if len(lights) >= 5 else None
     if homography is not None:
         projected = homography @ np.array([0.0, 0.0, 1.0])
@@ -388,17 +386,28 @@ def _affine(xy: np.ndarray, slots: np.ndarray, count: int) -> tuple[np.ndarray, 
 
 
 def ring_model(xy: np.ndarray, slots: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Centre and conjugate half-diameters (c, a, b) of the ring through lights at their slots:
-    the affine ring from five lights, which follows any tilt; a circle (a ring seen nearly face
-    on) through fewer, where the affine ring would fit anything exactly."""
+    """Centre and conjugate half-diameters (c, a, b) of the ring through lights at their slots."""
+    return _ring_fit(xy, slots, count)[0]
+
+
+def _ring_fit(xy: np.ndarray, slots: np.ndarray, count: int) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], float]:
+    """The ring through lights at their slots, and how far (share of the spacing) its lights may
+    stray from it: the affine ring from five lights, which follows any tilt, within centroid
+    scatter; through fewer, where the affine ring fits three lights exactly, a circle (a ring
+    seen nearly face on) within scatter and some tilt; four lights of a ring tilted beyond
+    that are taken as an affine ring again, within scatter only."""
     if len(xy) >= 5:
-        return _affine(xy, slots, count)
+        return _affine(xy, slots, count), MAX_RESIDUAL
     weight = np.zeros((1, count))
     by_slot = np.zeros((1, count, 2))
     weight[0, slots] = 1.0
     by_slot[0, slots] = xy
-    cx, cy, a0, b0 = _fit_circles(weight, by_slot, _circle_design(count))[0]
-    return np.array([cx, cy]), np.array([a0, b0]), np.array([-b0, a0])
+    design = _circle_design(count)
+    circle = _fit_circles(weight, by_slot, design)
+    cx, cy, a0, b0 = circle[0]
+    if len(xy) == 4 and _circle_residual(circle, weight, by_slot, design)[0] > MAX_CIRCLE_RESIDUAL:
+        return _affine(xy, slots, count), MAX_RESIDUAL
+    return (np.array([cx, cy]), np.array([a0, b0]), np.array([-b0, a0])), MAX_CIRCLE_RESIDUAL
 
 
 def _homography(xy: np.ndarray, slots: np.ndarray, count: int) -> np.ndarray | None:

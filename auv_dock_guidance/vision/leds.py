@@ -35,6 +35,8 @@ _SURROUND_SAMPLES = 16
 _ANGLES = np.linspace(0.0, 2.0 * math.pi, _SURROUND_SAMPLES, endpoint=False)
 _GLOW_INNER, _GLOW_OUTER = 1.2, 2.5  # annulus where a blob's glow is measured, in blob radii
 _GLOW_KNOWN = 10.0  # grey levels of glow below which its colour is not told
+COLOURED_GLOW_SATURATION = 0.3  # glow saturation from which light is clearly coloured (white LEDs: below)
+_SAME_HUE_COSINE = 0.5  # glows of one hue, off grey, point within 60 deg of each other (water tints them)
 
 
 @dataclass(frozen=True)
@@ -204,6 +206,21 @@ def glow_saturation(glow_bgr: tuple[float, float, float] | None) -> float:
     if glow_bgr is None or top <= 0.0 or math.hypot(*glow_bgr) < _GLOW_KNOWN:
         return math.nan
     return (top - max(0.0, min(glow_bgr))) / top
+
+
+def glow_matches(glow_bgr: tuple[float, float, float] | None, bgr: tuple[float, float, float]) -> bool:
+    """Whether a blob's glow has the hue of LEDs of colour ``bgr`` (its direction off grey in
+    colour space): a lamp or glint of another colour, or of none where the LEDs have one,
+    does not. Water tints every glow, so only the hue is compared, loosely; white LEDs, and
+    glows too faint to tell, match any."""
+    colour = np.array(bgr, np.float64) - np.mean(bgr)
+    saturation = glow_saturation(glow_bgr)
+    if glow_bgr is None or not np.any(colour) or math.isnan(saturation):
+        return True
+    if saturation < COLOURED_GLOW_SATURATION:
+        return False
+    hue = np.array(glow_bgr, np.float64) - np.mean(glow_bgr)
+    return float(hue @ colour) >= _SAME_HUE_COSINE * float(np.linalg.norm(hue) * np.linalg.norm(colour))
 
 
 def _centroid(image: np.ndarray, u: float, v: float, radius: float) -> tuple[float, float]:

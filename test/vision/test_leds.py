@@ -1,7 +1,7 @@
 import cv2
 import numpy as np
 
-from auv_dock_guidance.vision.leds import find_leds, refined
+from auv_dock_guidance.vision.leds import find_leds, glow_matches, glow_saturation, refined, water_colour
 
 
 def _water(h=300, w=400):
@@ -41,3 +41,26 @@ def test_a_cable_a_ring_fixture_and_texture_inside_a_lit_disc_are_not_blobs():
     on_fixture = [b for b in blobs if abs(np.hypot(b.u - 270, b.v - 90) - 45) < 6]
     inside_disc = [b for b in blobs if np.hypot(b.u - 260, b.v - 230) < 40]  # its rim may remain: no ring
     assert on_cable == [] and on_fixture == [] and inside_disc == []
+
+
+def test_an_led_glows_in_its_colour_and_a_spot_it_lights_on_a_white_disc_glows_white():
+    image = _water()
+    cv2.circle(image, (150, 150), 60, (235, 240, 235), -1)  # the white funnel
+    image = _bloom(image, 228.0, 151.0)  # a blue LED just outside it
+    cv2.circle(image, (180, 104), 3, (255, 255, 255), -1)  # a bracket on the rim catching light
+    image = _u8(image)
+    water = water_colour(image)
+    blobs = [refined(image, b, water) for b in find_leds(image, 1.0, 31)]
+    led = next(b for b in blobs if abs(b.u - 228) < 3 and abs(b.v - 151) < 3)
+    assert glow_saturation(led.glow_bgr) > 0.6
+    spots = [b for b in blobs if abs(b.u - 180) < 4 and abs(b.v - 104) < 4]
+    assert all(glow_saturation(b.glow_bgr) < 0.5 * glow_saturation(led.glow_bgr) for b in spots)
+
+
+def test_a_given_colour_keeps_glows_of_its_hue_tinted_by_the_water_and_drops_others():
+    blue = (1.0, 0.0, 0.0)
+    assert glow_matches((166.0, 114.0, 14.0), blue)  # blue LEDs seen through green water: cyan-blue
+    assert not glow_matches((20.0, 90.0, 180.0), blue)  # an orange lamp
+    assert not glow_matches((150.0, 140.0, 135.0), blue)  # white light: no hue where the LEDs have one
+    assert glow_matches((150.0, 140.0, 135.0), (1.0, 1.0, 1.0))  # white LEDs take any
+    assert glow_matches(None, blue)  # not told (a grey image)
