@@ -41,6 +41,7 @@ class SimulatedSystem:
             VISION_COMBINED,
             overrides={
                 "camera_ingest": {"source": "sim", "sim_reflection": world.reflection},
+                "detector": {"marker_led_count": world.scene.led_count},  # the simulated dock, described
                 "serial_bridge": {"port": self.controller.port, "arm_on_start": True},
             },
             env=ros_environment(domain_id=self.domain),

@@ -314,6 +314,7 @@ class CameraModel:
         return j
 
 
+@lru_cache(maxsize=64)  # asked at every undistortion; a polynomial's roots cost more than the rest of it
 def _radial_fold(k1: float, k2: float, k3: float) -> float | None:
     """Smallest r > 0 where d/dr [r (1 + k1 r^2 + k2 r^4 + k3 r^6)] = 0, if below the search limit.
 
