@@ -19,7 +19,7 @@ from visualization_msgs.msg import Marker
 
 from auv_dock_guidance.geometry.camera import paper_camera
 from auv_dock_guidance.launcher import NodeGroup, ros_environment
-from auv_dock_guidance.sim.main_controller import MainControllerSim
+from auv_dock_guidance.sim.main_controller import MainControllerSim, VehicleState
 from auv_dock_guidance.sim.scene import SceneSpec, render
 
 PU, SU, PL, SL = range(4)
@@ -38,8 +38,16 @@ def frames(tmp_path_factory):
     return folder
 
 
+class HeldStill:
+    """The navigation of a vehicle that does not move, as the still frames show it: a vehicle
+    that turned while the dock stayed put in the image would tell guidance a world that cannot be."""
+
+    def step(self, pwm_us: tuple[int, int, int, int], dt: float) -> VehicleState:
+        return VehicleState()
+
+
 def test_commands_reach_the_controller_and_follow_the_marker(frames, domain_id, tmp_path):
-    controller = MainControllerSim().start()
+    controller = MainControllerSim(vehicle=HeldStill()).start()
     group = NodeGroup(
         ["camera_ingest", "detector", "guidance", "serial_bridge"],
         overrides={
