@@ -83,8 +83,19 @@ def find_led_rings(image: np.ndarray, copy: tuple[np.ndarray, float], camera: Ca
         return ((px[:, 0] >= x0 + margin) & (px[:, 0] <= x1 - 1 - margin)
                 & (px[:, 1] >= y0 + margin) & (px[:, 1] <= y1 - 1 - margin))
 
-    rings = assemble_rings(xy * focal, blobs, in_view, config.led_count)
-    return [_candidate(ring, blobs, pixels, xy) for ring in rings]
+    # Lights that stand clear of their surroundings first, as the real footage shows rings; lights
+    # in a glow (a ring blooming into one halo far out) are let in only where those made no ring.
+    isolated = np.flatnonzero([b.isolated for b in blobs])
+    for part in (isolated, np.arange(len(blobs))):
+        if len(part) < 3:
+            continue
+        chosen = [blobs[i] for i in part]
+        rings = assemble_rings(xy[part] * focal, chosen, in_view, config.led_count)
+        if rings:
+            return [_candidate(ring, chosen, pixels[part], xy[part]) for ring in rings]
+        if len(part) == len(blobs):
+            break
+    return []
 
 
 def _candidate(ring: LedRing, blobs: list[LedBlob], pixels: np.ndarray, xy: np.ndarray) -> LedRingCandidate:

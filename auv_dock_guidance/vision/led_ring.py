@@ -140,8 +140,9 @@ def _better(a: LedRing, b: LedRing) -> bool:
 def _triples(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray) -> np.ndarray:
     """(j, i, k) among the strongest free lights: j and k on either side of i at similar
     distances, of a size similar to i's, bending as a ring of 6 or more LEDs does."""
-    index = np.flatnonzero(free)
-    index = index[np.argsort([-blobs[i].strength for i in index], kind="stable")][:SEED_LIGHTS]
+    index = np.flatnonzero(free)  # isolated lights first: lights in a glow must not crowd them out
+    index = index[np.lexsort(([-blobs[i].strength for i in index], [not blobs[i].isolated for i in index]))]
+    index = index[:SEED_LIGHTS]
     if len(index) < 3:
         return np.empty((0, 3), np.int64)
     p = points[index]
@@ -161,6 +162,14 @@ def _triples(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray) -> np.n
     turn = 180.0 - np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
     keep = (turn >= _MIN_TURN_DEG) & (turn <= _MAX_TURN_DEG)
     return np.column_stack([index[j[keep]], index[i[keep]], index[k[keep]]])
+
+
+def _enough_isolated(ring: LedRing, blobs: list[LedBlob]) -> bool:
+    """Lights in a glow (a ring blooming into one halo, a lit funnel behind it) count towards
+    a ring, but a few lights on a circle must each stand clear, and a longer run must hold
+    at least one that does: spots on a lit surface do not fall at N even steps round a light."""
+    isolated = sum(blobs[m].isolated for m in ring.members)
+    return isolated >= (MIN_LEDS_KNOWN_COUNT if len(ring.members) < MIN_LEDS_UNKNOWN_COUNT else 1)
 
 
 def _alike(values: np.ndarray) -> np.ndarray:
@@ -258,7 +267,8 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
         if ring is None or ring.occupancy < MIN_OCCUPANCY:
             continue
         coloured = ring.glow_saturation >= COLOURED_GLOW_SATURATION  # False when not told (NaN)
-        if len(ring.members) >= (minimum if count_known or coloured else MIN_LEDS_UNKNOWN_COUNT):
+        if len(ring.members) >= (minimum if count_known or coloured else MIN_LEDS_UNKNOWN_COUNT) \
+                and _enough_isolated(ring, blobs):
             rings.append(ring)
     return rings
 

@@ -22,7 +22,7 @@ being one kind of LED, glow alike.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -48,6 +48,7 @@ class LedBlob:
     radius_px: float  # half width of its best box, full-resolution pixels
     peak: float  # grey levels of its core above its surroundings (mean of the channels)
     strength: float  # centre-surround contrast in noise deviations
+    isolated: bool = True  # darker all round: may seed a ring (else it sits in a glow and can only complete one)
     glow_bgr: tuple[float, float, float] | None = None  # light it adds around its core over the water (`refined`)
 
 
@@ -89,16 +90,17 @@ def find_leds(small: np.ndarray, scale: float, background_px: int, max_count: in
     radius = _SCALES[best]
     keep = (strength > _RESPONSE_SIGMAS) & _round(smooth.astype(np.float32), x, y, radius)
     water = float(np.median(gray[::4, ::4]))
-    peak = _surround_contrast(cv2.GaussianBlur(gray, (0, 0), 1.0).astype(np.float32), x, y, radius, water)
-    keep &= np.isfinite(peak)
-    order = np.flatnonzero(keep)[np.argsort(-strength[keep], kind="stable")]
+    peak, isolated = _surround_contrast(cv2.GaussianBlur(gray, (0, 0), 1.0).astype(np.float32), x, y, radius, water)
+    keep &= peak > 0
+    order = np.flatnonzero(keep)
+    order = order[np.lexsort((-strength[order], ~isolated[order]))]  # isolated lights first, each by strength
     blobs: list[LedBlob] = []
     for i in order:
         r = float(radius[i]) / scale
         u, v = (x[i] + 0.5) / scale - 0.5 + origin[0], (y[i] + 0.5) / scale - 0.5 + origin[1]
         if any(math.hypot(u - b.u, v - b.v) < max(b.radius_px, r) for b in blobs):
             continue  # the same light seen from another of its maxima
-        blobs.append(LedBlob(float(u), float(v), r, float(peak[i]), float(strength[i])))
+        blobs.append(LedBlob(float(u), float(v), r, float(peak[i]), float(strength[i]), bool(isolated[i])))
         if len(blobs) >= max_count:
             break
     return blobs
@@ -142,12 +144,15 @@ def _round(smooth: np.ndarray, x: np.ndarray, y: np.ndarray, radius: np.ndarray)
 
 
 def _surround_contrast(gray: np.ndarray, x: np.ndarray, y: np.ndarray, radius: np.ndarray,
-                       water: float) -> np.ndarray:
-    """How far each blob's core stands above its surroundings (grey levels), NaN where most of
-    a circle a few blob radii out is nearly as bright, or where the core stands above it by
-    less than a third of its height above the water (a spot on a lit region), or where
-    the circle is bright at two opposite points and dark between them (a line passing through:
-    a cable, a rim, a fixture's ring; a light beside a lit region is bright on one side only)."""
+                       water: float) -> tuple[np.ndarray, np.ndarray]:
+    """How far each blob's core stands above its surroundings (grey levels), and whether it is
+    a point source standing clear of them. It is not where most of a circle a few blob radii
+    out is nearly as bright, or where the core stands above it by less than a third of its
+    height above the water (a spot on a lit region), or where the circle is bright at two
+    opposite points and dark between them (a line passing through: a cable, a rim, a
+    fixture's ring; a light beside a lit region is bright on one side only). The LEDs of a
+    ring that blooms into one glow fail the same tests, which is why such lights may still
+    complete a ring that isolated ones began."""
     h, w = gray.shape
     reach = _SURROUND_RADII * np.maximum(radius, 1.0)[:, None]
     xs = np.clip(np.round(x[:, None] + reach * np.cos(_ANGLES)).astype(np.int64), 0, w - 1)
@@ -163,7 +168,7 @@ def _surround_contrast(gray: np.ndarray, x: np.ndarray, y: np.ndarray, radius: n
               & ~np.roll(bright, quarter, axis=1) & ~np.roll(bright, -quarter, axis=1))
     point_source = ((core - darkest > 0) & (core - typical >= 0.5 * (core - darkest))
                     & (core - typical >= (core - water) / 3.0) & ~across.any(axis=1))
-    return np.where(point_source, core - typical, np.nan)
+    return core - typical, point_source
 
 
 def refined(image: np.ndarray, blob: LedBlob, water_bgr: np.ndarray | None = None) -> LedBlob:
@@ -171,7 +176,7 @@ def refined(image: np.ndarray, blob: LedBlob, water_bgr: np.ndarray | None = Non
     (``water_bgr``, the frame's typical pixel), its glow."""
     u, v = _centroid(image, blob.u, blob.v, blob.radius_px)
     glow = None if water_bgr is None or image.ndim == 2 else _glow(image, u, v, blob.radius_px, water_bgr)
-    return LedBlob(u, v, blob.radius_px, blob.peak, blob.strength, glow)
+    return replace(blob, u=u, v=v, glow_bgr=glow)
 
 
 def water_colour(small: np.ndarray) -> np.ndarray:

@@ -11,7 +11,7 @@ WHITE_GLOW = (190.0, 150.0, 140.0)  # a white surface beside it, lit by it
 
 
 def _blobs(points, radius=4.0, peak=100.0, glow=None):
-    return [LedBlob(float(x), float(y), radius, peak, 20.0, glow) for x, y in points]
+    return [LedBlob(float(x), float(y), radius, peak, 20.0, glow_bgr=glow) for x, y in points]
 
 
 def _ring(count=8, center=(300.0, 250.0), a=(120.0, 0.0), b=(0.0, 90.0), phase=0.2, slots=None):

@@ -30,13 +30,13 @@ def test_a_blooming_led_beside_a_saturated_disc_is_a_blob_at_its_centre():
     assert near and abs(near[0].u - 228) < 1.0 and abs(near[0].v - 151) < 1.0
 
 
-def test_a_cable_a_ring_fixture_and_texture_inside_a_lit_disc_are_not_blobs():
+def test_a_cable_a_ring_fixture_and_texture_inside_a_lit_disc_are_not_isolated_lights():
     image = _water()
     cv2.line(image, (20, 10), (60, 290), (150, 150, 150), 2)
     cv2.circle(image, (270, 90), 45, (120, 120, 120), 3)
     cv2.circle(image, (260, 230), 50, (230, 230, 230), -1)
     cv2.circle(image, (260, 230), 3, (255, 255, 255), -1)  # a spot on the lit funnel
-    blobs = find_leds(_u8(cv2.GaussianBlur(image, (0, 0), 1.0)), 1.0, 31)
+    blobs = [b for b in find_leds(_u8(cv2.GaussianBlur(image, (0, 0), 1.0)), 1.0, 31) if b.isolated]
     on_cable = [b for b in blobs if b.u < 70]
     on_fixture = [b for b in blobs if abs(np.hypot(b.u - 270, b.v - 90) - 45) < 6]
     inside_disc = [b for b in blobs if np.hypot(b.u - 260, b.v - 230) < 40]  # its rim may remain: no ring
@@ -64,3 +64,22 @@ def test_a_given_colour_keeps_glows_of_its_hue_tinted_by_the_water_and_drops_oth
     assert not glow_matches((150.0, 140.0, 135.0), blue)  # white light: no hue where the LEDs have one
     assert glow_matches((150.0, 140.0, 135.0), (1.0, 1.0, 1.0))  # white LEDs take any
     assert glow_matches(None, blue)  # not told (a grey image)
+
+
+def _ring_in_one_glow(count=9, radius=32.0, centre=(200.0, 150.0)):
+    """A distant ring whose LEDs bloom into one glow over a lit hub, as the far end of an approach shows it."""
+    image = _water()
+    cv2.circle(image, (int(centre[0]), int(centre[1])), int(radius - 6), (170, 175, 170), -1)
+    image = cv2.GaussianBlur(image, (0, 0), 4.0)
+    for k in range(count):
+        a = 0.4 + 2.0 * np.pi * k / count
+        _bloom(image, centre[0] + radius * np.cos(a), centre[1] + radius * np.sin(a), halo=6.0, colour=(50, 60, 50))
+    return _u8(image)
+
+
+def test_leds_blooming_into_one_glow_are_found_though_few_stand_clear_of_it():
+    image = _ring_in_one_glow()
+    blobs = find_leds(image, 1.0, 31)
+    on_ring = [b for b in blobs if abs(np.hypot(b.u - 200, b.v - 150) - 32) < 4]
+    assert len(on_ring) == 9
+    assert sum(b.isolated for b in on_ring) < 9  # some sit in their neighbours' glow: they complete, not begin
