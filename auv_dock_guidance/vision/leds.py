@@ -91,7 +91,7 @@ def find_leds(small: np.ndarray, scale: float, background_px: int, max_count: in
     keep = (strength > _RESPONSE_SIGMAS) & _round(smooth.astype(np.float32), x, y, radius)
     water = float(np.median(gray[::4, ::4]))
     peak, isolated = _surround_contrast(cv2.GaussianBlur(gray, (0, 0), 1.0).astype(np.float32), x, y, radius, water)
-    keep &= peak > 0
+    keep &= peak > 0  # False for NaN: lines are no lights
     order = np.flatnonzero(keep)
     order = order[np.lexsort((-strength[order], ~isolated[order]))]  # isolated lights first, each by strength
     blobs: list[LedBlob] = []
@@ -148,11 +148,11 @@ def _surround_contrast(gray: np.ndarray, x: np.ndarray, y: np.ndarray, radius: n
     """How far each blob's core stands above its surroundings (grey levels), and whether it is
     a point source standing clear of them. It is not where most of a circle a few blob radii
     out is nearly as bright, or where the core stands above it by less than a third of its
-    height above the water (a spot on a lit region), or where the circle is bright at two
-    opposite points and dark between them (a line passing through: a cable, a rim, a
-    fixture's ring; a light beside a lit region is bright on one side only). The LEDs of a
-    ring that blooms into one glow fail the same tests, which is why such lights may still
-    complete a ring that isolated ones began."""
+    height above the water (a spot on a lit region); the LEDs of a ring that blooms into one
+    glow fail these tests too, which is why such lights are kept, to complete a ring. NaN
+    where the circle is bright at two opposite points and dark between them: a line passing
+    through (a cable, a rim, a fixture's ring, a caustic; a light beside a lit region is
+    bright on one side only)."""
     h, w = gray.shape
     reach = _SURROUND_RADII * np.maximum(radius, 1.0)[:, None]
     xs = np.clip(np.round(x[:, None] + reach * np.cos(_ANGLES)).astype(np.int64), 0, w - 1)
@@ -166,9 +166,10 @@ def _surround_contrast(gray: np.ndarray, x: np.ndarray, y: np.ndarray, radius: n
     half, quarter = _SURROUND_SAMPLES // 2, _SURROUND_SAMPLES // 4
     across = (bright & np.roll(bright, half, axis=1)
               & ~np.roll(bright, quarter, axis=1) & ~np.roll(bright, -quarter, axis=1))
+    line = across.any(axis=1)
     point_source = ((core - darkest > 0) & (core - typical >= 0.5 * (core - darkest))
-                    & (core - typical >= (core - water) / 3.0) & ~across.any(axis=1))
-    return core - typical, point_source
+                    & (core - typical >= (core - water) / 3.0) & ~line)
+    return np.where(line, np.nan, core - typical), point_source
 
 
 def refined(image: np.ndarray, blob: LedBlob, water_bgr: np.ndarray | None = None) -> LedBlob:
