@@ -67,6 +67,7 @@ class ApproachConfig:
     back_off_to_m: float = 8.0  # along the line
     back_off_speed_mps: float = 0.4  # over ground
     settle_m: float = 4.0  # on the approach line by this far out
+    sidestep: bool = False  # back off sideways when the line is out of reach (else: approach, retry if it would miss)
     sidestep_shortfall_deg: float = 3.0  # sidestep when reaching the line in view falls short by more than this...
     sidestep_spare_deg: float = 2.0  # ...until it is in reach with this to spare
     sidestep_max_range_m: float = 25.0  # no sidestepping further out than this (the dock must stay detectable)
@@ -253,7 +254,7 @@ class ApproachPlanner:
         c = self.config
         line, line_side = _unit(g.line_yaw), _unit(g.line_yaw + math.pi / 2)
         on_line, off_line = -_dot(g.nose, line), _dot(g.nose, line_side)
-        if not s.axis_known or on_line <= c.commit_m or g.distance > c.sidestep_max_range_m:
+        if not c.sidestep or not s.axis_known or on_line <= c.commit_m or g.distance > c.sidestep_max_range_m:
             return None
         off_angle = abs(math.atan2(off_line, on_line))
         lead = self._lead(s, g, -math.copysign(1.0, off_line), reverse=False)

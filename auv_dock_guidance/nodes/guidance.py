@@ -84,6 +84,7 @@ PARAMS = [
     Param("max_retries", 3, "back off and retry this often when the entry would miss, then abort", 0, 20),
     Param("max_speed_mps", 0.9, "fastest approach through the water, used against a cross current (m/s)", 0.1, 5.0),
     Param("entry_crab_deg", 8.0, "largest heading off the dock's axis for the last metres (deg)", 1.0, 30.0),
+    Param("sidestep", False, "back off sideways in reverse when the approach line is out of reach (else retry on the line)"),
 ]
 
 
@@ -96,7 +97,8 @@ def guidance_config(v: dict[str, Any], mixer: MixerConfig, camera_ahead_m: float
         cruise_speed_mps=v["cruise_speed_mps"], terminal_speed_mps=v["terminal_speed_mps"],
         full_thrust_speed_mps=v["full_thrust_speed_mps"],
     )
-    approach = ApproachConfig(max_speed_mps=v["max_speed_mps"], entry_crab_deg=v["entry_crab_deg"])
+    approach = ApproachConfig(max_speed_mps=v["max_speed_mps"], entry_crab_deg=v["entry_crab_deg"],
+                              sidestep=v["sidestep"])
     return GuidanceConfig(
         velocity_steering=v["velocity_steering"], axis_alignment=v["axis_alignment"], max_retries=v["max_retries"],
         approach=approach, tracker=TrackerConfig(camera_ahead_m=camera_ahead_m),

@@ -11,7 +11,7 @@ import numpy as np
 from auv_dock_guidance.control.approach import ApproachConfig, ApproachPlanner, Situation, Verdict
 from auv_dock_guidance.control.axis import AxisEstimator
 from auv_dock_guidance.control.cascade import Attitude, Target
-from auv_dock_guidance.control.guidance import Guidance, State
+from auv_dock_guidance.control.guidance import Guidance, GuidanceConfig, State
 from auv_dock_guidance.control.tracker import DockTracker
 
 AHEAD = 0.9  # camera ahead of the reference point
@@ -136,19 +136,34 @@ def test_forty_degrees_off_the_axis_lines_up_before_the_entry():
     assert abs(auv.heading) < math.radians(10)
 
 
+SIDESTEPPING = GuidanceConfig(approach=ApproachConfig(sidestep=True))
+
+
 def test_far_round_the_dock_close_in_it_sidesteps_in_reverse_and_then_enters():
     """35 deg off the axis 9 m out: the line is out of reach with the dock in view, so it backs off sideways."""
     start = 9.0 * np.array([-math.cos(math.radians(35)), math.sin(math.radians(35))])
     auv = KinematicAuv(start, math.atan2(-start[1], -start[0]), (0.0, 0.0))
-    guidance = Guidance()
+    guidance = Guidance(SIDESTEPPING)
     out = fly(guidance, auv, seconds=300.0)
     assert guidance.sidesteps >= 1 and guidance.retries == 0
     assert out.state is not State.ABORT, out.transition
     assert abs(auv.nose[1]) < 0.05 and abs(auv.heading) < math.radians(10)
 
 
+def test_by_default_far_round_the_dock_close_in_it_approaches_and_retries_on_the_line_when_it_would_miss():
+    """The same start without sidestepping (the default): it never backs off sideways; where the
+    entry would miss it backs off along the line and approaches again."""
+    start = 9.0 * np.array([-math.cos(math.radians(35)), math.sin(math.radians(35))])
+    auv = KinematicAuv(start, math.atan2(-start[1], -start[0]), (0.0, 0.0))
+    guidance = Guidance()
+    out = fly(guidance, auv, seconds=300.0)
+    assert guidance.sidesteps == 0 and guidance.retries >= 1
+    assert out.state is not State.ABORT, out.transition
+    assert abs(auv.nose[1]) < 0.05 and abs(auv.heading) < math.radians(10)
+
+
 def test_the_sidestep_keeps_the_dock_in_view_and_gains_on_the_line():
-    planner = ApproachPlanner()
+    planner = ApproachPlanner(SIDESTEPPING.approach)
     c = planner.config
     situation = Situation((-7.0, 5.0), (0.0, 0.0), math.atan2(-5.0, 7.0 - AHEAD), 0.0, 0.0, AHEAD, 0.41,
                           axis_known=True)
