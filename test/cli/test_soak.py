@@ -8,7 +8,7 @@ def test_short_soak_survives_every_kind_of_fault(capsys):
     code = main(["soak", "--minutes", "1.5", "--fault-every", "3", "--json"])
     report = json.loads(capsys.readouterr().out)
     assert set(report["faults"]) == {f.name for f in FAULTS}, report  # every kind at least once
-    assert report["faults_survived"] == report["faults_injected"], report
+    assert report["faults_survived"] == report["faults_injected"], report["not_survived"]
     assert report["wrong_reactions"] == [], report
     # measured, not bounded here: the deadlines are figures of `auv-dock soak --minutes 30`
     assert set(report["worst_reaction_ms"]) >= {"guidance_killed", "detector_killed", "camera_stalled"}, report
