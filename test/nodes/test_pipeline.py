@@ -74,7 +74,7 @@ def test_commands_reach_the_controller_and_follow_the_marker(frames, domain_id, 
                     and _diagnostic_names(seen) >= EXPECTED_DIAGNOSTICS:
                 break
         assert not group.exited(), f"a node died: {group.exited()}"
-        monitor = subprocess.run([sys.executable, "-m", "auv_dock_guidance.cli.main", "monitor", "--once", "3"],
+        monitor = subprocess.run([sys.executable, "-m", "auv_dock_guidance.cli.main", "monitor", "--once", "10"],
                                  env=group.env, capture_output=True, text=True, timeout=60)
     finally:
         node.destroy_node()
