@@ -86,15 +86,12 @@ def find_led_rings(image: np.ndarray, copy: tuple[np.ndarray, float], camera: Ca
     # Lights that stand clear of their surroundings first, as the real footage shows rings; lights
     # in a glow (a ring blooming into one halo far out) are let in only where those made no ring.
     isolated = np.flatnonzero([b.isolated for b in blobs])
-    for part in (isolated, np.arange(len(blobs))):
-        if len(part) < 3:
-            continue
+    passes = [isolated] if len(isolated) == len(blobs) else [isolated, np.arange(len(blobs))]
+    for part in (p for p in passes if len(p) >= 3):
         chosen = [blobs[i] for i in part]
         rings = assemble_rings(xy[part] * focal, chosen, in_view, config.led_count)
         if rings:
             return [_candidate(ring, chosen, pixels[part], xy[part]) for ring in rings]
-        if len(part) == len(blobs):
-            break
     return []
 
 
