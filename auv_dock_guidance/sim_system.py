@@ -1,16 +1,18 @@
 """The four nodes as processes against a simulated vehicle and main controller: what the demo and soak run.
 
-This process hosts the simulator: vehicle dynamics behind the main-controller simulator
-on a pseudo-terminal, and the vehicle pose on ``sim/vehicle_pose`` for camera_ingest to
-render from. Needs rclpy (imported here, never by the core).
+This process publishes the simulated vehicle's pose on ``sim/vehicle_pose`` for
+camera_ingest to render from; the vehicle dynamics behind the main-controller simulator on
+a pseudo-terminal run in a child process (sim.controller_process), as a main controller
+runs on its own computer. Needs rclpy (imported here, never by the core).
 """
 
 from __future__ import annotations
 
+import shutil
+import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
 import rclpy
 from geometry_msgs.msg import PoseStamped
 from rclpy.signals import SignalHandlerOptions
@@ -21,8 +23,7 @@ from auv_dock_guidance.geometry.rotations import rep103_quaternion
 from auv_dock_guidance.launcher import VISION_COMBINED, NodeGroup, private_domain_id, ros_environment
 from auv_dock_guidance.nodes.conversions import seconds_stamp, vehicle_to_pose
 from auv_dock_guidance.recording import BagRecorder, FrameTransform
-from auv_dock_guidance.sim.main_controller import MainControllerSim
-from auv_dock_guidance.sim.vehicle import AuvDynamics
+from auv_dock_guidance.sim.controller_process import ControllerProcess
 from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
 
 WORLD_FRAME = "pool"  # the simulated pool (REP 103: x along the pool towards the dock, y left, z up)
@@ -34,8 +35,8 @@ class SimulatedSystem:
     def __init__(self, world: PoolWorld, start: VehiclePose, log_dir: Path, seed: int = 7,
                  domain_id: int | None = None) -> None:
         self.world = world
-        self.vehicle = AuvDynamics(start, seed=seed)
-        self.controller = MainControllerSim(vehicle=self.vehicle)
+        self._link_folder = tempfile.mkdtemp(prefix="main-controller-")
+        self.controller = ControllerProcess(start, seed, Path(self._link_folder, "main_controller"))
         self.domain = domain_id if domain_id is not None else private_domain_id()
         self.group = NodeGroup(
             VISION_COMBINED,
@@ -51,7 +52,7 @@ class SimulatedSystem:
         self.node = rclpy.create_node("simulator")
         publisher = self.node.create_publisher(PoseStamped, "sim/vehicle_pose", 1)
         self.node.create_timer(
-            1 / 30, lambda: publisher.publish(vehicle_to_pose(self.vehicle.pose, seconds_stamp(time.time()))))
+            1 / 30, lambda: publisher.publish(vehicle_to_pose(self.controller.pose, seconds_stamp(time.time()))))
         self._reset_client = self.node.create_client(Trigger, "guidance/reset")
 
     def start(self) -> SimulatedSystem:
@@ -66,9 +67,7 @@ class SimulatedSystem:
 
     def reposition(self, pose: VehiclePose) -> None:
         """Put the vehicle at a new start, at rest, and re-arm guidance."""
-        self.vehicle.pose = pose
-        self.vehicle.velocity = np.zeros(3)
-        self.vehicle.rates = np.zeros(2)
+        self.controller.reposition(pose)
         if self._reset_client.wait_for_service(timeout_sec=2.0):
             future = self._reset_client.call_async(Trigger.Request())
             end = time.monotonic() + 2.0
@@ -87,7 +86,7 @@ class SimulatedSystem:
                                   now().nanoseconds, static=True)
 
         def vehicle() -> None:
-            p = self.vehicle.pose
+            p = self.controller.pose
             recorder.write_transforms([FrameTransform(WORLD_FRAME, mounting.parent_frame, (p.x, p.y, p.z),
                                                       rep103_quaternion(p.roll, p.pitch, p.yaw))],
                                       now().nanoseconds)
@@ -95,12 +94,13 @@ class SimulatedSystem:
         self.node.create_timer(1.0 / rate_hz, vehicle)
 
     def nose_past_dock(self) -> bool:
-        return bool(self.world.camera_position(self.vehicle.pose)[0] >= self.world.dock_x_m)
+        return bool(self.world.camera_position(self.controller.pose)[0] >= self.world.dock_x_m)
 
     def stop(self) -> dict[str, int | None]:
         """The node processes first (the bridge leaves the thrusters neutral at the controller), then our own."""
         codes = self.group.stop()
         self.controller.stop()
+        shutil.rmtree(self._link_folder, ignore_errors=True)
         self.node.destroy_node()
         rclpy.try_shutdown()
         return codes

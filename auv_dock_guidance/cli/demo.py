@@ -64,7 +64,7 @@ def _demo(args: argparse.Namespace, report: Path, domain: int) -> int:
     world = PoolWorld(reflection=args.scenario == "reflection")
     start = VehiclePose(x=world.dock_x_m - 12.0, y=1.0, z=-world.dock_depth_m + 0.5, yaw=math.radians(5.0))
     system = SimulatedSystem(world, start, report / "logs", domain_id=domain)
-    node, vehicle = system.node, system.vehicle
+    node, controller = system.node, system.controller
     seen: dict[str, Any] = {"state": "starting", "bearing": None}
 
     states: list[tuple[float, str]] = []  # (s from the start, state entered)
@@ -107,7 +107,7 @@ def _demo(args: argparse.Namespace, report: Path, domain: int) -> int:
               f"report in {report}", flush=True)
         while (elapsed := time.monotonic() - t0) < args.timeout:
             rclpy.spin_once(node, timeout_sec=0.05)
-            p = vehicle.pose
+            p = controller.pose
             trajectory.append((elapsed, *nose_in_dock_frame(world, p), p.yaw))
             if elapsed - last_print >= 2.0:
                 last_print = elapsed

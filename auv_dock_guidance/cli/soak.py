@@ -170,7 +170,7 @@ def _soak(args: argparse.Namespace, domain: int) -> int:
         while time.monotonic() < end:
             system.spin(0.2)
             progress(int(time.monotonic() - t0), int(args.minutes * 60))
-            range_left = world.dock_x_m - world.camera_position(system.vehicle.pose)[0]
+            range_left = world.dock_x_m - world.camera_position(system.controller.pose)[0]
             if system.nose_past_dock() or range_left < 1.0 or state["value"] in ("DOCKED", "ABORT"):
                 dockings += system.nose_past_dock()
                 system.reposition(_start_pose(rng, world))
