@@ -149,6 +149,8 @@ class NodeGroup:
                 try:
                     p.wait(timeout=max(0.1, remaining))
                 except subprocess.TimeoutExpired:
+                    if sig == signal.SIGKILL:
+                        _log_where_it_hangs(p)
                     p.send_signal(sig)
             deadline = time.monotonic() + 2.0
         for p in self.processes.values():
@@ -162,6 +164,16 @@ class NodeGroup:
 
     def __exit__(self, *exc: object) -> None:
         self.stop()
+
+
+def _log_where_it_hangs(process: subprocess.Popen) -> None:
+    """A node that ignored SIGINT and SIGTERM writes its threads' stacks to its log
+    (nodes.common registers SIGUSR1 with faulthandler) before it is killed."""
+    process.send_signal(signal.SIGUSR1)
+    try:
+        process.wait(timeout=0.3)
+    except subprocess.TimeoutExpired:
+        pass
 
 
 class StopRequested(KeyboardInterrupt):

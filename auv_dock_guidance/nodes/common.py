@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import faulthandler
 import math
 import os
+import signal
 import sys
 import threading
 import time
@@ -155,6 +157,7 @@ def run_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:
 
 def run_nodes(factories: list[Callable[[], Node]], args: list[str] | None = None) -> int:
     """Several nodes in one process on one executor; exit code 2 on a configuration error."""
+    faulthandler.register(signal.SIGUSR1, all_threads=True)  # where a hung node hangs, into its log
     rclpy.init(args=args)
     nodes: list[Node] = []
     code = 0

@@ -83,3 +83,21 @@ def test_a_second_signal_does_not_cut_the_cleanup_short():
             time.sleep(0.2)
             cleaned = True
     assert cleaned
+
+
+def test_a_node_that_ignores_every_stop_signal_is_killed_and_its_stack_is_in_its_log(tmp_path):
+    """As run_nodes registers it: SIGUSR1 dumps the stacks before the kill, so the log says where it hung."""
+    stuck = ("import faulthandler, signal, time\n"
+             "faulthandler.register(signal.SIGUSR1, all_threads=True)\n"
+             "for s in (signal.SIGINT, signal.SIGTERM): signal.signal(s, signal.SIG_IGN)\n"
+             "print('up', flush=True)\n"
+             "def hung_in_teardown(): time.sleep(60)\n"
+             "hung_in_teardown()\n")
+    log = open(tmp_path / "stuck.log", "wb")
+    group = NodeGroup([], env=ros_environment())
+    group.processes["stuck"] = subprocess.Popen([sys.executable, "-c", stuck], stdout=log, stderr=subprocess.STDOUT)
+    group._logs.append(log)
+    while b"up" not in (tmp_path / "stuck.log").read_bytes():
+        time.sleep(0.05)
+    assert group.stop(timeout_s=0.3) == {"stuck": -signal.SIGKILL}
+    assert "hung_in_teardown" in (tmp_path / "stuck.log").read_text()
