@@ -65,11 +65,26 @@ def test_entries_of_ended_processes_are_dropped(monkeypatch, tmp_path):
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP])
 def test_sigterm_and_sighup_end_the_work_as_ctrl_c_does(sig):
-    with pytest.raises(KeyboardInterrupt, match=sig.name) as stopped, stop_on_signals():
-        os.kill(os.getpid(), sig)
-        time.sleep(2.0)
-    assert isinstance(stopped.value, StopRequested)
-    assert signal.getsignal(sig) is signal.SIG_DFL  # the process's own handling is back
+    previous = signal.signal(sig, signal.SIG_DFL)  # as a terminal starts us (pytest may run under nohup)
+    try:
+        with pytest.raises(KeyboardInterrupt, match=sig.name) as stopped, stop_on_signals():
+            os.kill(os.getpid(), sig)
+            time.sleep(2.0)
+        assert isinstance(stopped.value, StopRequested)
+        assert signal.getsignal(sig) is signal.SIG_DFL  # the process's own handling is back
+    finally:
+        signal.signal(sig, previous)
+
+
+def test_a_hangup_ignored_as_under_nohup_stays_ignored():
+    previous = signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    try:
+        with stop_on_signals():
+            os.kill(os.getpid(), signal.SIGHUP)
+            time.sleep(0.2)  # nothing is raised: the work goes on
+        assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGHUP, previous)
 
 
 def test_a_second_signal_does_not_cut_the_cleanup_short():

@@ -75,13 +75,19 @@ def _alive(processes: dict[int, str]) -> list[int]:
     return alive
 
 
+def _as_from_a_terminal() -> None:
+    """SIGHUP handled by default even when the tests run under nohup (which the command would respect)."""
+    signal.signal(signal.SIGHUP, signal.SIG_DFL)
+
+
 def _stop_with(command: list[str], sig: signal.Signals, domain_id: int, nodes: int = 3,
                working: Callable[[], bool] = lambda: True) -> tuple[int, str, str]:
     """Start an auv-dock command, wait until its nodes run (and ``working`` holds), send ``sig``: no
     node may be left 5 s later."""
     owner = subprocess.Popen([sys.executable, "-m", "auv_dock_guidance.cli.main", *command,
                               "--domain-id", str(domain_id)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                             text=True, start_new_session=True)
+                             text=True, start_new_session=True,
+                             preexec_fn=_as_from_a_terminal)
     try:
         deadline = time.monotonic() + 60.0
         while len(children := _node_processes(owner.pid)) < nodes and time.monotonic() < deadline:
