@@ -182,9 +182,10 @@ class StopRequested(KeyboardInterrupt):
 
 @contextmanager
 def stop_on_signals() -> Iterator[None]:
-    """SIGINT, SIGTERM and SIGHUP (unless ignored, as nohup does) raise KeyboardInterrupt once in the main thread, so the
-    owner of the node processes runs the same cleanup for each; a repeated signal while it
-    cleans up is ignored (the cleanup is bounded: NodeGroup.stop kills what does not stop)."""
+    """SIGINT, SIGTERM and SIGHUP (unless ignored, as nohup does) raise KeyboardInterrupt once
+    in the main thread, so the owner of the node processes runs the same cleanup for each; a
+    repeated signal while it cleans up is ignored (the cleanup is bounded: NodeGroup.stop
+    kills what does not stop)."""
     stopping = False
 
     def handler(signum: int, _frame: object) -> None:
