@@ -182,7 +182,7 @@ class StopRequested(KeyboardInterrupt):
 
 @contextmanager
 def stop_on_signals() -> Iterator[None]:
-    """SIGINT, SIGTERM and SIGHUP (unless ignored, as nohup does) raise KeyboardInterrupt once
+    """SIGINT, SIGTERM and SIGHUP (unless nohup ignores it) raise KeyboardInterrupt once
     in the main thread, so the owner of the node processes runs the same cleanup for each; a
     repeated signal while it cleans up is ignored (the cleanup is bounded: NodeGroup.stop
     kills what does not stop)."""
@@ -199,8 +199,10 @@ def stop_on_signals() -> Iterator[None]:
             raise KeyboardInterrupt
         raise StopRequested(signal.Signals(signum).name)
 
-    # A signal ignored when we start stays ignored: under nohup, a closed terminal must not stop a soak.
-    previous = {sig: signal.getsignal(sig) for sig in STOP_SIGNALS if signal.getsignal(sig) is not signal.SIG_IGN}
+    # A hangup ignored when we start stays ignored: under nohup, a closed terminal must not stop a soak.
+    # (SIGINT is always ours: a shell starts background jobs with it ignored, and Ctrl-C must still stop.)
+    previous = {sig: signal.getsignal(sig) for sig in STOP_SIGNALS
+                if not (sig == signal.SIGHUP and signal.getsignal(sig) is signal.SIG_IGN)}
     for sig in previous:
         signal.signal(sig, handler)
     try:
