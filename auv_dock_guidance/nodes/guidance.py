@@ -24,6 +24,7 @@ Non-finite, repeated or out-of-order targets and IMU messages are refused, logge
 from __future__ import annotations
 
 import math
+import time
 from typing import Any
 
 import numpy as np
@@ -120,11 +121,13 @@ class GuidanceNode(Node):
         self.mixer_config = MixerConfig.from_yaml(path) if path else MixerConfig()
         self.guidance = Guidance(guidance_config(self.values, self.mixer_config, self.mounting.x_m))
         on_parameter_change(self, self._apply_parameters)
+        # Navigation first: after a stall of this process the executor takes one message per
+        # subscription per round in this order, so a queued detection meets the queued attitude.
+        self.create_subscription(Imu, "vehicle/imu", self._on_imu, 10)
+        self.create_subscription(Float64, "vehicle/depth", self._on_depth, 10)
         self.create_subscription(PointStamped, "dock/target", self._on_target, 10)
         self.create_subscription(PoseWithCovarianceStamped, "dock/pose", self._on_pose, 10)
         self._pose_seen_s: float | None = None  # node clock when dock/pose last came
-        self.create_subscription(Imu, "vehicle/imu", self._on_imu, 10)
-        self.create_subscription(Float64, "vehicle/depth", self._on_depth, 10)
         self.create_subscription(Bool, "vehicle/docked", self._on_docked, 10)
         self.create_subscription(Bool, "dock/detected", self._on_detected, 10)
         self.command_pub = self.create_publisher(UInt16MultiArray, "thrusters/command", 10)
@@ -134,6 +137,7 @@ class GuidanceNode(Node):
         self.transition_pub = self.create_publisher(String, "guidance/transition", TRANSITION_QOS)
         self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_service(Trigger, "guidance/reset", self._on_reset)
+        self._last_tick: float | None = None  # monotonic time of the last control tick
         self.create_timer(1.0 / self.values["control_rate_hz"], self._on_timer)
         self.create_timer(1.0, self._publish_state)
         self.create_timer(1.0, lambda: publish_diagnostics(self, self.diag_pub, self.diagnostics()))
@@ -211,7 +215,15 @@ class GuidanceNode(Node):
         self._step(Target(stamp_seconds(msg.header.stamp), forward, right, down, axis))
 
     def _on_timer(self) -> None:
-        self._step(None)
+        """A control tick; the first after a stall of this process longer than the telemetry timeout is
+        skipped: timers run before subscriptions, and the telemetry queued meanwhile must be taken
+        before its age is judged (else a scheduling hiccup here aborts as "telemetry stale")."""
+        now = time.monotonic()
+        late_s = 1.0 / self.values["control_rate_hz"] + self.values["telemetry_timeout_s"]
+        stalled = self._last_tick is not None and now - self._last_tick > late_s
+        self._last_tick = now
+        if not stalled:
+            self._step(None)
 
     def _step(self, target: Target | None) -> None:
         now = self.get_clock().now().nanoseconds * 1e-9
