@@ -4,6 +4,7 @@ import threading
 import time
 
 from geometry_msgs.msg import PointStamped
+from node_harness import beside, spin_until  # test/nodes is on the path (pytest's prepend import)
 from sensor_msgs.msg import Imu
 from std_msgs.msg import Bool
 
@@ -11,7 +12,6 @@ from auv_dock_guidance.control.cascade import Attitude
 from auv_dock_guidance.control.guidance import State
 from auv_dock_guidance.nodes.conversions import attitude_to_imu, seconds_stamp
 from auv_dock_guidance.nodes.guidance import GuidanceNode
-from node_harness import beside, spin_until  # test/nodes is on the path (pytest's prepend import)
 
 
 def test_a_stall_of_the_guidance_process_does_not_abort_it_while_telemetry_keeps_coming(ros):
