@@ -122,14 +122,15 @@ def _serve(conn: Connection, shared_pose: Any, start: VehiclePose, seed: int, li
     conn.send("ready")
     try:
         while True:
-            with shared_pose.get_lock():
-                shared_pose[:] = astuple(vehicle.pose)
+            _mirror(vehicle, shared_pose)
             if not conn.poll(_POLL_S):
                 continue
             request, argument = conn.recv()
             if request == "stop":
                 break
-            conn.send(_answer(controller, vehicle, request, argument))
+            reply = _answer(controller, vehicle, request, argument)
+            _mirror(vehicle, shared_pose)  # a reposition is seen as soon as it is answered
+            conn.send(reply)
     except (EOFError, OSError):
         pass  # the parent is gone: stop too
     finally:
@@ -138,6 +139,11 @@ def _serve(conn: Connection, shared_pose: Any, start: VehiclePose, seed: int, li
         conn.send(None)
     except OSError:
         pass
+
+
+def _mirror(vehicle: AuvDynamics, shared_pose: Any) -> None:
+    with shared_pose.get_lock():
+        shared_pose[:] = astuple(vehicle.pose)
 
 
 def _answer(controller: MainControllerSim, vehicle: AuvDynamics, request: str, argument: Any) -> Any:

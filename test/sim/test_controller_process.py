@@ -33,8 +33,14 @@ def test_commands_move_the_vehicle_and_a_reposition_puts_it_back_at_rest(tmp_pat
         moved = controller.pose
         assert moved.x > start.x + 0.05, "forward thrust should move the vehicle forward"
         assert any(r.pwm_us == tuple(FORWARD) for r in controller.records())
+        bridge.set_armed(False)  # thrusters neutral, so the vehicle stays where it is put
+        deadline = time.monotonic() + 5.0
+        while not (records := controller.records()) or records[-1].armed:
+            assert time.monotonic() < deadline, "the disarm never reached the controller"
+            time.sleep(0.01)
         controller.reposition(start)
         assert abs(controller.pose.x - start.x) < 0.05
+        bridge.set_armed(True)
         controller.inject(b"\x00garbage\xff")  # noise on the line: the controller keeps running
         controller.pause_telemetry(0.1)
         _drive(bridge, 0.3)
