@@ -17,12 +17,15 @@ import serial
 
 log = logging.getLogger(__name__)
 
+WRITE_TIMEOUTS_LOST = 3  # write timeouts in a row that mean the device is gone
+
 
 @dataclass
 class TransportStats:
     opens: int = 0
     open_failures: int = 0
     write_errors: int = 0
+    write_timeouts: int = 0  # writes that did not finish within the write timeout (not all are errors)
     read_errors: int = 0
     bytes_written: int = 0
     bytes_read: int = 0
@@ -48,6 +51,7 @@ class SerialTransport:
         self._opener = opener
         self._serial: Any = None
         self._next_attempt = 0.0
+        self._timeouts_in_row = 0
 
     @property
     def connected(self) -> bool:
@@ -81,10 +85,21 @@ class SerialTransport:
             return False
         try:
             self._serial.write(data)
+        except serial.SerialTimeoutException as exc:
+            # pyserial raises this after a complete write when the process was paused longer than
+            # the timeout (pyserial issue #281): only a device that takes no bytes for several
+            # writes in a row is gone; one timeout is a busy machine, and the frame may be out.
+            self.stats.write_timeouts += 1
+            self._timeouts_in_row += 1
+            if self._timeouts_in_row >= WRITE_TIMEOUTS_LOST:
+                self.stats.write_errors += 1
+                self._lost(exc)
+            return False
         except (serial.SerialException, OSError) as exc:
             self.stats.write_errors += 1
             self._lost(exc)
             return False
+        self._timeouts_in_row = 0
         self.stats.bytes_written += len(data)
         return True
 

@@ -242,7 +242,8 @@ class SerialBridgeNode(Node):
             "armed": self.bridge.armed, "in_failsafe": self.bridge.in_failsafe,
             "failsafe_events": s.failsafe_events, "commands_sent": s.commands_sent,
             "rejected_values": s.rejected_values, "frames_received": d.frames, "crc_errors": d.crc_errors,
-            "bytes_dropped": d.bytes_dropped, "reconnects": max(0, ts.opens - 1), "telemetry_age_s": f"{age:.3f}",
+            "bytes_dropped": d.bytes_dropped, "reconnects": max(0, ts.opens - 1),
+            "write_timeouts": ts.write_timeouts, "telemetry_age_s": f"{age:.3f}",
             "foreign_command_publishers": ", ".join(self._foreign) or "none", **self.problems.values(),
         })
 

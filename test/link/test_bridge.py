@@ -6,7 +6,7 @@ import serial
 
 from auv_dock_guidance.link.bridge import LinkBridge
 from auv_dock_guidance.link.protocol import StreamDecoder, ThrusterCommandMsg
-from auv_dock_guidance.link.transport import SerialTransport
+from auv_dock_guidance.link.transport import WRITE_TIMEOUTS_LOST, SerialTransport
 from auv_dock_guidance.sim.main_controller import MainControllerSim
 
 NEUTRAL = (1500, 1500, 1500, 1500)
@@ -117,11 +117,15 @@ class FlakyPort:
     def __init__(self):
         self.plugged = True
         self.written = b""
+        self.timeouts = 0  # the next writes raise pyserial's write timeout
 
     def write(self, data):
         if not self.plugged:
             raise serial.SerialException("device disconnected")
         self.written += data
+        if self.timeouts:
+            self.timeouts -= 1
+            raise serial.SerialTimeoutException("Write timeout")  # as pyserial does after a paused write
 
     @property
     def in_waiting(self):
@@ -160,3 +164,17 @@ def test_transport_reconnects_with_back_off_after_unplug():
     clock[0] += 5.0
     assert transport.write(b"d") and transport.connected
     assert transport.stats.opens == 2 and port.written.endswith(b"d")
+
+
+def test_a_lone_write_timeout_keeps_the_port_and_timeouts_in_a_row_drop_it():
+    port = FlakyPort()
+    transport = SerialTransport("/dev/ttyFAKE", opener=lambda name, **kw: port)
+    assert transport.write(b"a")
+    port.timeouts = 1  # the process was paused in write(): pyserial times out after writing
+    transport.write(b"b")
+    assert transport.connected and transport.write(b"c") and port.written == b"abc"
+    port.timeouts = WRITE_TIMEOUTS_LOST  # the device takes nothing: gone, reopened with back-off
+    for _ in range(WRITE_TIMEOUTS_LOST):
+        transport.write(b"x")
+    assert not transport.connected
+    assert transport.stats.write_timeouts == 1 + WRITE_TIMEOUTS_LOST and transport.stats.write_errors == 1
