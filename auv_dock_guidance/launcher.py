@@ -50,6 +50,10 @@ VISION_SEPARATE = ["camera_ingest", "detector", "guidance", "serial_bridge"]
 UDP_ONLY = {"guidance", "serial_bridge"}
 PROFILES_VARIABLE = "FASTRTPS_DEFAULT_PROFILES_FILE"
 BRIDGE = "serial_bridge"  # stopped first: it leaves the thrusters neutral as it closes
+# Frame work yields the CPU to the control path when the computer is short of it: a late
+# frame is dropped (only the newest is processed), late telemetry aborts the approach.
+VISION_NICENESS = 5
+YIELDING = {"camera_ingest", "detector", "vision_pipeline"}
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 
@@ -94,7 +98,8 @@ class NodeGroup:
     _logs: list[IO[bytes]] = field(default_factory=list)
 
     def command(self, name: str) -> list[str]:
-        argv = [*self.prefix, sys.executable, "-m", NODE_MODULES[name], "--ros-args", "--params-file",
+        nice = ["nice", "-n", str(VISION_NICENESS)] if name in YIELDING and shutil.which("nice") else []
+        argv = [*self.prefix, *nice, sys.executable, "-m", NODE_MODULES[name], "--ros-args", "--params-file",
                 str(self.params_file)]
         for node in NODES_OF.get(name, (name,)):
             for key, value in self.overrides.get(node, {}).items():

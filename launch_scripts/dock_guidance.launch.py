@@ -25,8 +25,9 @@ def generate_launch_description():
         DeclareLaunchArgument("source", default_value="device", description="device | video | folder | sim"),
         DeclareLaunchArgument("path", default_value="0", description="camera index/path, video or folder"),
         SetEnvironmentVariable("FASTRTPS_DEFAULT_PROFILES_FILE", os.path.join(config, "fastdds_shm.xml")),
-        # camera_ingest and detector share one process: 1080p frames stay inside it.
-        Node(package="auv_dock_guidance", executable="dock_vision_pipeline",
+        # camera_ingest and detector share one process: 1080p frames stay inside it. Niced, so
+        # that it yields the CPU to guidance and the serial bridge when the computer is short of it.
+        Node(package="auv_dock_guidance", executable="dock_vision_pipeline", prefix="nice -n 5",
              parameters=[params, {"source": source, "path": path}], output="screen"),
         # Small messages only: off shared memory, so a restart after a crash is never deaf.
         Node(package="auv_dock_guidance", executable="dock_guidance", name="guidance",

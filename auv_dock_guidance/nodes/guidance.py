@@ -215,12 +215,11 @@ class GuidanceNode(Node):
         self._step(Target(stamp_seconds(msg.header.stamp), forward, right, down, axis))
 
     def _on_timer(self) -> None:
-        """A control tick; the first after a stall of this process longer than the telemetry timeout is
+        """A control tick; the first after a hiccup of this process (three periods without a tick) is
         skipped: timers run before subscriptions, and the telemetry queued meanwhile must be taken
         before its age is judged (else a scheduling hiccup here aborts as "telemetry stale")."""
         now = time.monotonic()
-        late_s = 1.0 / self.values["control_rate_hz"] + self.values["telemetry_timeout_s"]
-        stalled = self._last_tick is not None and now - self._last_tick > late_s
+        stalled = self._last_tick is not None and now - self._last_tick > 3.0 / self.values["control_rate_hz"]
         self._last_tick = now
         if not stalled:
             self._step(None)

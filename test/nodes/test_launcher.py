@@ -12,6 +12,8 @@ import pytest
 
 from auv_dock_guidance.launcher import (
     PROFILES_VARIABLE,
+    VISION_COMBINED,
+    VISION_NICENESS,
     NodeGroup,
     RunningSystem,
     StopRequested,
@@ -31,6 +33,12 @@ def test_only_processes_that_carry_frames_use_shared_memory():
     assert group.environment("detector")[PROFILES_VARIABLE] == shm
     assert group.environment("guidance")[PROFILES_VARIABLE] == udp
     assert group.environment("serial_bridge")[PROFILES_VARIABLE] == udp
+
+
+def test_frame_work_is_niced_below_guidance_and_the_bridge():
+    group = NodeGroup(VISION_COMBINED, env=ros_environment())
+    assert group.command("vision_pipeline")[:3] == ["nice", "-n", str(VISION_NICENESS)]
+    assert group.command("guidance")[0] == sys.executable and group.command("serial_bridge")[0] == sys.executable
 
 
 def test_a_profile_the_user_chose_is_kept_for_every_process(monkeypatch, tmp_path):
