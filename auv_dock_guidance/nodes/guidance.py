@@ -84,7 +84,7 @@ PARAMS = [
     Param("axis_alignment", True, "line up with the dock's axis (the orientation on dock/pose) before the entry"),
     Param("max_retries", 3, "back off and retry this often when the entry would miss, then abort", 0, 20),
     Param("max_speed_mps", 0.9, "fastest approach through the water, used against a cross current (m/s)", 0.1, 5.0),
-    Param("entry_crab_deg", 8.0, "largest heading off the dock's axis for the last metres (deg)", 1.0, 30.0),
+    Param("entry_crab_deg", 10.0, "largest heading off the dock's axis for the last metres (deg)", 1.0, 30.0),
     Param("sidestep", False, "back off sideways in reverse when the approach line is out of reach (else retry)"),
 ]
 
