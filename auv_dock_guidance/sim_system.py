@@ -8,8 +8,6 @@ runs on its own computer. Needs rclpy (imported here, never by the core).
 
 from __future__ import annotations
 
-import shutil
-import tempfile
 import time
 from pathlib import Path
 
@@ -35,8 +33,7 @@ class SimulatedSystem:
     def __init__(self, world: PoolWorld, start: VehiclePose, log_dir: Path, seed: int = 7,
                  domain_id: int | None = None) -> None:
         self.world = world
-        self._link_folder = tempfile.mkdtemp(prefix="main-controller-")
-        self.controller = ControllerProcess(start, seed, Path(self._link_folder, "main_controller"))
+        self.controller = ControllerProcess(start, seed)
         self.domain = domain_id if domain_id is not None else private_domain_id()
         self.group = NodeGroup(
             VISION_COMBINED,
@@ -100,7 +97,6 @@ class SimulatedSystem:
         """The node processes first (the bridge leaves the thrusters neutral at the controller), then our own."""
         codes = self.group.stop()
         self.controller.stop()
-        shutil.rmtree(self._link_folder, ignore_errors=True)
         self.node.destroy_node()
         rclpy.try_shutdown()
         return codes

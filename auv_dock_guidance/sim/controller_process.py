@@ -11,7 +11,9 @@ shared memory and sends fault injections and repositions through a pipe.
 from __future__ import annotations
 
 import multiprocessing
+import shutil
 import signal
+import tempfile
 import threading
 from dataclasses import astuple
 from multiprocessing.connection import Connection
@@ -22,7 +24,6 @@ from auv_dock_guidance.sim.main_controller import CommandRecord, MainControllerS
 from auv_dock_guidance.sim.vehicle import AuvDynamics
 from auv_dock_guidance.sim.world import VehiclePose
 
-_POSE_FIELDS = 6  # x, y, z, roll, pitch, yaw
 _START_TIMEOUT_S = 20.0  # a spawned interpreter imports numpy and the simulator first
 _POLL_S = 0.005  # how often the child publishes the pose and looks for requests
 
@@ -32,9 +33,12 @@ class ControllerProcess:
 
     ``pose`` is the vehicle's newest pose; the fault injections of ``MainControllerSim``
     (``inject``, ``pause_telemetry``, ``unplug``) and ``records`` work as on the thread.
+    ``link``: where to put the link; default a private temporary folder, removed by ``stop``.
     """
 
-    def __init__(self, start: VehiclePose, seed: int, link: Path) -> None:
+    def __init__(self, start: VehiclePose, seed: int, link: Path | None = None) -> None:
+        self._own_folder = None if link is not None else tempfile.mkdtemp(prefix="main-controller-")
+        link = link if link is not None else Path(self._own_folder, "main_controller")  # type: ignore[arg-type]
         self.port = str(link)
         self._context = multiprocessing.get_context("spawn")  # no forked copy of rclpy or of threads
         self._pose = self._context.Array("d", astuple(start))
@@ -83,8 +87,13 @@ class ControllerProcess:
 
     def stop(self) -> None:
         """Neutral and gone: the child removes its terminal and link before it exits."""
-        if self._process is None:
-            return
+        if self._process is not None:
+            self._end_child(self._process)
+            self._process = None
+        if self._own_folder is not None:
+            shutil.rmtree(self._own_folder, ignore_errors=True)
+
+    def _end_child(self, process: multiprocessing.process.BaseProcess) -> None:
         if self._conn is not None:
             try:
                 self._send("stop", None)
@@ -92,11 +101,10 @@ class ControllerProcess:
                 pass  # already gone
             self._conn.close()
             self._conn = None
-        self._process.join(timeout=3.0)
-        if self._process.is_alive():
-            self._process.kill()
-            self._process.join(timeout=2.0)
-        self._process = None
+        process.join(timeout=3.0)
+        if process.is_alive():
+            process.kill()
+            process.join(timeout=2.0)
 
     def _send(self, request: str, argument: Any) -> Any:
         if self._conn is None:
@@ -162,4 +170,3 @@ def _answer(controller: MainControllerSim, vehicle: AuvDynamics, request: str, a
     else:
         return ValueError(f"unknown request {request!r}")
     return None
-

@@ -57,3 +57,11 @@ def test_a_link_that_cannot_be_made_is_reported_by_start(tmp_path: Path):
     controller = ControllerProcess(VehiclePose(0.0, 0.0, 0.0), seed=0, link=tmp_path / "missing" / "link")
     with pytest.raises(FileNotFoundError):
         controller.start()
+
+
+def test_its_own_link_folder_goes_with_it_even_when_it_never_started():
+    controller = ControllerProcess(VehiclePose(0.0, 0.0, 0.0), seed=0)
+    folder = Path(controller.port).parent
+    assert folder.is_dir()
+    controller.stop()
+    assert not folder.exists()
