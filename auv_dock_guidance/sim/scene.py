@@ -426,8 +426,9 @@ def _compose(camera: CameraModel, spec: SceneSpec, light: np.ndarray, body: list
              rng: np.random.Generator) -> np.ndarray:
     """Water background + the dock's body + coloured light + shot and read noise, as 8-bit BGR.
 
-    A plain background is smooth per row, so its noise level is computed per row and,
-    where light or the dock was drawn, per pixel. Structure, caustics, walls or vignetting
+    A plain background is smooth per row and the same in every frame of one water but for
+    the window of noise it shows, so it is made once (`_plain_water`); only where light or
+    the dock was drawn is it computed per pixel. Structure, caustics, walls or vignetting
     make every pixel different: then everything is computed per pixel. The dock's body
     hides the background; what is left in front of it is the veiling light.
     """
@@ -438,6 +439,7 @@ def _compose(camera: CameraModel, spec: SceneSpec, light: np.ndarray, body: list
     veil = np.float32(spec.backscatter) * water
     body_bgr = np.array(spec.funnel.bgr if spec.funnel is not None else (1.0, 1.0, 1.0), np.float32) * 255.0
     dy, dx = (int(v) for v in rng.integers(0, _NOISE_MARGIN, 2))
+    dy -= dy % _PLAIN_ROW_STEP  # the plain water is kept for a few row offsets only
     noise = _noise_field(h, w)[dy : dy + h, dx : dx + w]
     if spec.clutter or spec.caustics or spec.vignetting or spec.walls is not None:
         structure = background_structure(h, w, spec.clutter, spec.caustics, spec.walls, rng)
@@ -451,32 +453,49 @@ def _compose(camera: CameraModel, spec: SceneSpec, light: np.ndarray, body: list
         np.clip(noisy, 0, 255, out=noisy)
         return noisy.astype(np.uint8)
     background = rows[:, None] * water[None, :]  # (h, 3)
-    row_sigma = np.sqrt(spec.read_noise**2 + spec.shot_noise**2 * background).astype(np.float32)
+    image = _plain_water(h, w, spec.ambient_top, spec.ambient_bottom, spec.backscatter, tuple(spec.water_bgr),
+                         spec.read_noise, spec.shot_noise, dy // _PLAIN_ROW_STEP)[:, dx:dx + w].copy()
     drawn = light[::4, ::4] > 1e-4
     for patch in body:
         drawn[patch.y0 // 4:-(-(patch.y0 + patch.radiance.shape[0]) // 4),
               patch.x0 // 4:-(-(patch.x0 + patch.radiance.shape[1]) // 4)] = True
     box = _box(drawn)
-    if box is None:
-        image = noise * row_sigma[:, None, :]
-        image += background[:, None, :]
-    else:  # the light and the dock, and their shot noise, only where there are any; rows elsewhere
+    if box is not None:  # the light and the dock, and their shot noise, only where there are any
         top, bottom, left, right = box
         y0, y1 = max(0, 4 * top - 4), min(h, 4 * bottom + 8)
         x0, x1 = max(0, 4 * left - 4), min(w, 4 * right + 8)
-        image = np.empty((h, w, 3), np.float32)
-        for ys, xs in (np.s_[:y0, :], np.s_[y1:, :], np.s_[y0:y1, :x0], np.s_[y0:y1, x1:]):
-            np.multiply(noise[ys, xs], row_sigma[ys, None, :], out=image[ys, xs])
-            image[ys, xs] += background[ys, None, :]
         clean = light[y0:y1, x0:x1, None] * led
         clean += background[y0:y1, None, :]
         for patch in body:
             py, px = patch.box
             inner = np.s_[py.start - y0:py.stop - y0, px.start - x0:px.stop - x0]
             _add_body(clean[inner], patch, veil, background[py, None, :], body_bgr)
-        _with_noise(clean, noise[y0:y1, x0:x1], spec, out=image[y0:y1, x0:x1])
+        noisy = _with_noise(clean, noise[y0:y1, x0:x1], spec)
+        np.clip(noisy, 0, 255, out=noisy)
+        image[y0:y1, x0:x1] = noisy
+    return image
+
+
+_PLAIN_ROW_STEP = 16  # row offsets of the noise window a plain background is kept for (4 of them)
+
+
+@lru_cache(maxsize=8)
+def _plain_water(h: int, w: int, ambient_top: float, ambient_bottom: float, backscatter: float,
+                 water_bgr: tuple[float, float, float], read_noise: float, shot_noise: float,
+                 row_offset: int) -> np.ndarray:
+    """The plain water with its noise as 8-bit BGR, as wide as the noise field: a frame takes
+    a window of it. Made once per water and row offset; per frame it was half the renderer's time.
+    """
+    dy = row_offset * _PLAIN_ROW_STEP
+    rows = np.linspace(ambient_top, ambient_bottom, h, dtype=np.float32) + np.float32(backscatter)
+    background = rows[:, None] * (np.array(water_bgr, np.float32) * 255.0)[None, :]
+    sigma = np.sqrt(read_noise**2 + shot_noise**2 * background).astype(np.float32)
+    image = _noise_field(h, w)[dy:dy + h] * sigma[:, None, :]
+    image += background[:, None, :]
     np.clip(image, 0, 255, out=image)
-    return image.astype(np.uint8)
+    plain = image.astype(np.uint8)
+    plain.setflags(write=False)
+    return plain
 
 
 def _with_noise(clean: np.ndarray, noise: np.ndarray, spec: SceneSpec, out: np.ndarray | None = None) -> np.ndarray:
