@@ -55,6 +55,8 @@ BRIDGE = "serial_bridge"  # stopped first: it leaves the thrusters neutral as it
 VISION_NICENESS = 5
 YIELDING = {"camera_ingest", "detector", "vision_pipeline"}
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+LAUNCHER_VARIABLE = "AUV_DOCK_LAUNCHER_PID"  # set for the nodes it starts: they end when it does
+_PR_SET_PDEATHSIG = 1  # linux/prctl.h
 
 
 def rss_mb(pid: int) -> float:
@@ -126,8 +128,9 @@ class NodeGroup:
             self.log_dir.mkdir(parents=True, exist_ok=True)
             out = open(self.log_dir / f"{name}.log", log_mode)
             self._logs.append(out)
+        env = {**self.environment(name), LAUNCHER_VARIABLE: str(os.getpid())}
         self.processes[name] = subprocess.Popen(
-            self.command(name), env=self.environment(name), stdout=out, stderr=subprocess.STDOUT if out else None,
+            self.command(name), env=env, stdout=out, stderr=subprocess.STDOUT if out else None,
             stdin=subprocess.DEVNULL, start_new_session=True,
         )
 
@@ -169,6 +172,25 @@ class NodeGroup:
 
     def __exit__(self, *exc: object) -> None:
         self.stop()
+
+
+def end_with_launcher() -> None:
+    """In a node the launcher started: SIGTERM (its clean stop: the bridge leaves the thrusters
+    neutral) when the launcher ends in any way, a SIGKILL or a crash included, instead of
+    running on unsupervised. Linux only (prctl); elsewhere, and for a node a person started,
+    nothing changes (a node under nohup keeps running when its terminal closes)."""
+    launcher = os.environ.get(LAUNCHER_VARIABLE)
+    if launcher is None or not sys.platform.startswith("linux"):
+        return
+    import ctypes  # here: only nodes a launcher started need it
+
+    ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0)
+    try:
+        os.kill(int(launcher), 0)  # ended before the request took effect: end now
+    except ProcessLookupError:
+        os.kill(os.getpid(), signal.SIGTERM)
+    except (PermissionError, ValueError):
+        pass
 
 
 def _log_where_it_hangs(process: subprocess.Popen) -> None:

@@ -24,6 +24,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile
 
 from auv_dock_guidance.errors import DockGuidanceError
 from auv_dock_guidance.geometry.mounting import CameraMounting
+from auv_dock_guidance.launcher import end_with_launcher
 
 # guidance/transition is latched: whoever subscribes late (a shore laptop, a recorder) still
 # gets the recent transitions, with the reason for the state the vehicle is in.
@@ -159,6 +160,7 @@ def run_nodes(factories: list[Callable[[], Node]], args: list[str] | None = None
     """Several nodes in one process on one executor; exit code 2 on a configuration error."""
     faulthandler.register(signal.SIGUSR1, all_threads=True)  # where a hung node hangs, into its log
     rclpy.init(args=args)
+    end_with_launcher()  # after init: rclpy's SIGTERM handler stops the node cleanly
     nodes: list[Node] = []
     code = 0
     try:
