@@ -24,7 +24,7 @@ from auv_dock_guidance.geometry.pose import Ellipse, pose_from_circle, pose_from
 from auv_dock_guidance.vision.config import DetectorConfig
 from auv_dock_guidance.vision.detection import Detection
 from auv_dock_guidance.vision.led_ring import LedRing, assemble_rings, ring_model
-from auv_dock_guidance.vision.leds import LedBlob, find_leds, glow_matches, refined, water_colour
+from auv_dock_guidance.vision.leds import LedBlob, find_leds, glow_matches, lit_region, refined, water_colour
 from auv_dock_guidance.vision.search import Box, picture_area
 from auv_dock_guidance.vision.selection import CandidateShape
 
@@ -58,7 +58,16 @@ def find_led_rings(image: np.ndarray, copy: tuple[np.ndarray, float], camera: Ca
     """Rings of evenly spaced lights in the frame, or in the part of it whose search copy is
     ``copy`` and whose top left corner is ``origin`` (a tracking window)."""
     small, scale = copy
-    found = find_leds(small, scale, config.search_background_px, origin=origin)
+    rings = _rings_of(image, find_leds(small, scale, config.search_background_px, origin=origin), camera, config, view)
+    lit = lit_region(small) if not rings else None
+    if lit is not None:  # LEDs merged with a funnel brighter than the sensor takes: bumps on its outline
+        rings = _rings_of(image, find_leds(small, scale, config.search_background_px, origin=origin, lit=lit),
+                          camera, config, view)
+    return rings
+
+
+def _rings_of(image: np.ndarray, found: list[LedBlob], camera: CameraModel | None, config: DetectorConfig,
+              view: FrameView) -> list[LedRingCandidate]:
     blobs = [refined(image, b, view.water_bgr) for b in found]
     if config.led_bgr is not None:
         blobs = [b for b in blobs if glow_matches(b.glow_bgr, config.led_bgr)]

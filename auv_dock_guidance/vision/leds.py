@@ -17,6 +17,14 @@ its glow measured (`refined`): the colour of the light it adds around its core. 
 glows in its own colour; a bright spot on what the LEDs light (a corner of a white
 funnel, a bolt on its rim) adds light of that surface's colour, and the LEDs of one ring,
 being one kind of LED, glow alike.
+
+A funnel lit brighter than the sensor takes is one white plateau, and LEDs just outside
+its rim bloom into it: the top-hat sees the plateau's parts between the vanes as lights
+and the LEDs not at all. When no ring is found and the frame holds such a region
+(`lit_region`), the lights are looked for again as bumps on its outline: a round opening
+about a third of the region's radius wide fits between the vanes but not into an LED, so
+what it removes near the region is the LEDs' share outside the rim (its centroid lies a
+pixel or two outside the LED's centre: ranges come out a few percent short).
 """
 
 from __future__ import annotations
@@ -30,6 +38,9 @@ import numpy as np
 _SCALES = np.array([1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0])  # box half widths tried, search-copy pixels
 _RESPONSE_SIGMAS = 5.0  # a blob's centre-surround contrast must stand this many noise deviations clear
 _MAX_CURVATURE_RATIO = 10.0  # curvature ratio above which a peak is a ridge (Lowe's edge test)
+_LIT_LEVEL = 235.0  # mean-channel level of a region at full scale (white, saturated)
+_LIT_MIN_RADIUS = 6.0  # copy pixels: a lit region smaller than this is an LED, not a funnel
+_RIM_OPENING_SHARE = 0.35  # round opening / radius of the lit region: fits between vanes, not into an LED
 _SURROUND_RADII = 2.5  # blob radii out to the circle that must be mostly darker
 _SURROUND_SAMPLES = 16
 _ANGLES = np.linspace(0.0, 2.0 * math.pi, _SURROUND_SAMPLES, endpoint=False)
@@ -60,17 +71,26 @@ def mean_channel(image: np.ndarray) -> np.ndarray:
 
 
 def find_leds(small: np.ndarray, scale: float, background_px: int, max_count: int = 48,
-              origin: tuple[int, int] = (0, 0)) -> list[LedBlob]:
+              origin: tuple[int, int] = (0, 0), lit: LitRegion | None = None) -> list[LedBlob]:
     """Compact bright blobs, strongest first, at most ``max_count``; centres from the copy.
 
     ``small`` is the search copy at ``scale`` of the frame, or of the part of it whose top
     left corner is ``origin`` (full-resolution pixels); ``background_px`` the width of
     the top-hat's opening on it (wider than any LED, narrower than the lit funnel).
+    ``lit`` instead: the LEDs as bumps on the outline of that lit region, which they merge
+    with (a funnel brighter than the sensor takes), found by a round opening that fits
+    between the funnel's vanes but not into an LED.
     """
     gray = mean_channel(small)
-    k = background_px | 1
-    opened = cv2.morphologyEx(gray, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_RECT, (k, k)))
-    tophat = cv2.subtract(gray, cv2.blur(opened, (k, k)))
+    if lit is not None:
+        k = max(5, int(round(_RIM_OPENING_SHARE * lit.radius))) | 1
+        disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
+        tophat = cv2.subtract(gray, cv2.morphologyEx(gray, cv2.MORPH_OPEN, disc))
+        tophat[cv2.dilate(lit.mask, disc, iterations=2) == 0] = 0  # bumps on its outline, not corners elsewhere
+    else:
+        k = background_px | 1
+        opened = cv2.morphologyEx(gray, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_RECT, (k, k)))
+        tophat = cv2.subtract(gray, cv2.blur(opened, (k, k)))
     smooth = cv2.GaussianBlur(tophat, (0, 0), 1.0)
     sample = smooth[::4, ::4].astype(np.float32)
     typical = float(np.median(sample))
@@ -104,6 +124,25 @@ def find_leds(small: np.ndarray, scale: float, background_px: int, max_count: in
         if len(blobs) >= max_count:
             break
     return blobs
+
+
+@dataclass(frozen=True)
+class LitRegion:
+    """What of a search copy is at full scale, when some of it is wider than an LED: a lit
+    funnel (split by its vanes into parts) or a lamp the LEDs may merge with."""
+
+    mask: np.ndarray  # uint8, 1 at full scale, copy pixels
+    radius: float  # of the largest part, from its area, copy pixels
+
+
+def lit_region(small: np.ndarray) -> LitRegion | None:
+    """The copy's pixels at full scale, if a part of them is wider than an LED."""
+    bright = (mean_channel(small) >= _LIT_LEVEL).astype(np.uint8)
+    count, _, stats, _ = cv2.connectedComponentsWithStats(bright, connectivity=8)
+    if count <= 1:
+        return None
+    radius = math.sqrt(float(stats[1:, cv2.CC_STAT_AREA].max()) / math.pi)
+    return LitRegion(bright, radius) if radius >= _LIT_MIN_RADIUS else None
 
 
 def _centre_surround(integral: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:

@@ -30,6 +30,8 @@ class Dock:
     led_bgr: tuple[float, float, float] = (1.0, 0.45, 0.15)  # blue
     lit_leds: tuple[int, ...] | None = None  # only these LEDs (None: all)
     funnel: bool = True
+    funnel_gain: float = 1.1  # above about 1.1 the lit funnel saturates all over
+    rim_m: float = 0.30  # the funnel's rim; LEDs at RING_RADIUS_M just outside it
     fixture: bool = True  # a grey ring on the wall, about the dock's size
     reflection_height_m: float | None = None  # a surface this far above the dock mirrors it
     phase_rad: float = 0.3
@@ -109,17 +111,18 @@ def _draw_dock(image: np.ndarray, dock: Dock, camera: CameraModel, gain: float =
     out = image.copy()
     if dock.funnel:
         funnel = np.zeros((h, w), np.float32)
-        cv2.fillPoly(funnel, [polygon(_circle(center, e1, e2, 0.30))], 1.0, cv2.LINE_AA, 4)
+        rim = dock.rim_m
+        cv2.fillPoly(funnel, [polygon(_circle(center, e1, e2, rim))], 1.0, cv2.LINE_AA, 4)
         shade = 0.85 + 0.5 * np.clip((np.mgrid[0:h, 0:w][0] - 0.3 * h) / h, 0, 1)  # lower half saturates
         for k in range(4):  # dark vanes
             a = dock.phase_rad + k * math.pi / 2
-            tip = center + 0.30 * (math.cos(a) * e1 + math.sin(a) * e2)
+            tip = center + rim * (math.cos(a) * e1 + math.sin(a) * e2)
             side = 0.02 * (-math.sin(a) * e1 + math.cos(a) * e2)
             cv2.fillPoly(funnel, [polygon(np.array([center + side, center - side, tip - side, tip + side]))],
                          0.25, cv2.LINE_AA, 4)
         cv2.fillPoly(funnel, [polygon(_circle(center, e1, e2, 0.06))], 0.05, cv2.LINE_AA, 4)
-        cv2.polylines(funnel, [polygon(_circle(center, e1, e2, 0.31))], True, 0.8, 2, cv2.LINE_AA, 4)
-        white = np.array([235.0, 250.0, 225.0], np.float32) * 1.1
+        cv2.polylines(funnel, [polygon(_circle(center, e1, e2, rim + 0.01))], True, 0.8, 2, cv2.LINE_AA, 4)
+        white = np.array([235.0, 250.0, 225.0], np.float32) * dock.funnel_gain
         alpha = cv2.GaussianBlur(funnel, (0, 0), 0.7)
         inside = alpha > 0.02
         out = np.where(inside[..., None], out * (1 - np.minimum(alpha, 1)[..., None]) +

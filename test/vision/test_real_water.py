@@ -40,6 +40,18 @@ def test_a_ring_the_frame_cuts_with_half_or_more_in_view_gives_its_true_centre_a
     assert detection.pose.range_m == pytest.approx(dock.center_m[2], rel=0.05)
 
 
+@pytest.mark.parametrize("led_count", [9, None])
+@pytest.mark.parametrize("range_m", [5.0, 7.0])
+def test_leds_merged_with_a_funnel_brighter_than_the_sensor_takes_are_found_on_its_outline(led_count, range_m):
+    """White saturated funnel, LEDs on its rim blooming into it: only their bumps on its outline show."""
+    dock = Dock(center_m=(0.2, 0.1, range_m), normal=(0.2, -0.1, -1.0), led_count=9, led_bgr=(0.2, 1.0, 0.25),
+                funnel_gain=3.0, rim_m=0.325, fixture=False)
+    detection = _detect(dock, led_count)
+    assert detection.found and len(detection.leds) == 9
+    assert _bearing_error_deg(detection, dock) < 0.2
+    assert detection.pose.range_m == pytest.approx(range_m, rel=0.08)  # bumps lie a little outside the LEDs
+
+
 def test_a_corner_with_three_leds_gives_a_bearing_towards_the_rings_centre_outside_the_frame():
     dock = Dock(center_m=(-0.9, -0.4, 1.6), seed=5)
     assert ring_center_px(dock)[0] < 0  # the centre is out of view
