@@ -23,6 +23,18 @@ turned by a strong cross current) cannot reach the line in view before it must b
 (``settle_m``). It then sidesteps: backs off in reverse with the nose on the dock, its
 velocity led towards the line's side, until the line is in reach, and approaches again
 (the dock never leaves the view).
+
+The vertical is a line too: the dock's axis is level, so the pitch brings the vehicle to the
+dock's depth ahead with the same line-of-sight law, and the speed through the water rises
+when a current setting towards the dock leaves too little time for the climb; the entry
+check also counts the depth error that would be left at the entrance.
+
+Backing off after a predicted miss goes in reverse with the nose on the dock to a point
+on the line further out. Where that point cannot be reached so (reversing there would
+turn the dock out of view: far round the dock or in a strong cross current, where the
+reverse pass ended metres off the line and the next approach failed the same way), the
+vehicle turns round and drives to it blind on the track (own motion and the current
+estimate), then turns to face the dock again.
 """
 
 from __future__ import annotations
@@ -33,6 +45,12 @@ from enum import StrEnum
 
 from auv_dock_guidance.control.pid import wrap_angle
 from auv_dock_guidance.errors import ConfigError
+
+
+class _BackOff(StrEnum):
+    REVERSE = "reverse"  # nose on the dock
+    BLIND = "blind"  # turned round, on the track
+    FACE = "face"  # at the back-off point, turning to the dock
 
 
 class Verdict(StrEnum):
@@ -53,6 +71,10 @@ class ApproachConfig:
     heading_limit_growth_deg_per_m: float = 20.0  # the heading clamp against the axis widens with distance
     fov_margin_deg: float = 26.0  # the dock stays within this of the nose (the lens sees about 34 deg each way)
     fov_until_m: float = 2.0  # closer than this the ring leaves the frame anyway
+    fov_vertical_margin_deg: float = 14.0  # the dock stays within this of the nose vertically (about 20 each way)
+    max_pitch_deg: float = 25.0  # largest pitch goal for reaching the dock's depth...
+    climb_pitch_deg: float = 15.0  # ...of which the vehicle holds about this (its righting moment takes the rest)
+    level_by_m: float = 1.0  # at the dock's depth this far before the entrance
     lookahead_share: float = 0.4  # lookahead = share of the distance along the line, within the limits
     lookahead_min_m: float = 1.0
     lookahead_max_m: float = 5.0
@@ -66,6 +88,11 @@ class ApproachConfig:
     speed_time_constant_s: float = 1.0
     back_off_to_m: float = 8.0  # along the line
     back_off_speed_mps: float = 0.4  # over ground
+    reposition_beyond_view_deg: float = 10.0  # reversing to the back-off point needs the dock this far out of view...
+    reposition_speed_mps: float = 0.7  # ...: turn round and drive blind at this speed over ground...
+    reposition_to_m: float = 12.0  # ...to a point this far out on the line (a long final on the known axis)
+    reposition_from_m: float = 4.0  # ...but not closer than this along the axis (the turn must clear the dock)
+    facing_deg: float = 10.0  # back at the point, the nose this close to the dock: backed off
     settle_m: float = 4.0  # on the approach line by this far out
     sidestep: bool = False  # back off sideways when the line is out of reach (else: approach, retry if it would miss)
     sidestep_shortfall_deg: float = 3.0  # sidestep when reaching the line in view falls short by more than this...
@@ -91,7 +118,10 @@ class Plan:
     along_m: float  # nose in front of the entrance, along the axis
     cross_m: float  # nose off the axis (starboard of the inbound path +)
     predicted_miss_m: float | None  # where the nose would cross the entrance plane, off the centre
+    depth_left_m: float | None = None  # depth error that would be left at the entrance (checked with the miss)
+    pitch_rad: float | None = None  # pitch goal for the dock's depth (nose up +); None: not known, the bearing's
     sidestep: bool = False  # backing off sideways to bring the approach line within reach
+    blind: bool = False  # turned away from the dock, driving to the back-off point on the track
 
 
 @dataclass(frozen=True)
@@ -117,6 +147,7 @@ class Situation:
     camera_ahead_m: float
     nominal_speed_mps: float  # the speed schedule's speed over ground at this range
     axis_known: bool = False  # the axis is told from its mirror image: sidesteps are allowed
+    dock_below_m: float | None = None  # the entrance centre below the reference point; None: not seen yet
 
 
 def _unit(yaw: float) -> tuple[float, float]:
@@ -140,6 +171,7 @@ class ApproachPlanner:
 
     def reset(self) -> None:
         self._sidestepping = False
+        self._back_off_phase = _BackOff.REVERSE
 
     def plan(self, s: Situation, backing_off: bool, predict_entry: bool = True) -> Plan:
         """Heading and speed now; ``predict_entry`` also checks the crossing (when new information came)."""
@@ -148,6 +180,7 @@ class ApproachPlanner:
         if backing_off:
             self._sidestepping = False
             return self._back_off(s, geometry)
+        self._back_off_phase = _BackOff.REVERSE
         shortfall = self._shortfall(s, geometry)
         if shortfall is None:
             self._sidestepping = False
@@ -161,12 +194,54 @@ class ApproachPlanner:
             s = replace(s, nominal_speed_mps=c.max_speed_mps)  # the line is barely in reach: the most lead there is
         yaw, speed = self._steer(s, geometry)
         along, cross = geometry.along, geometry.cross
-        verdict, predicted = Verdict.GO, None
+        verdict, predicted, depth_left = Verdict.GO, None, None
         if along < c.commit_m and predict_entry:
             predicted = self._rolled_out_miss(s, yaw, speed)
-            if predicted is None or abs(predicted) > c.entry_tolerance_m:
+            depth_left = self._depth_left(s, geometry, yaw, speed)
+            if predicted is None or abs(predicted) > c.entry_tolerance_m or depth_left > c.entry_tolerance_m:
                 verdict = Verdict.WOULD_MISS
-        return Plan(wrap_angle(yaw), speed, verdict, along, cross, predicted)
+        return Plan(wrap_angle(yaw), speed, verdict, along, cross, predicted, depth_left,
+                    self._pitch(s, geometry, yaw, speed))
+
+    def _pitch(self, s: Situation, g: _Geometry, yaw: float, speed: float) -> float | None:
+        """Pitch goal (nose up +) that brings the vehicle to the depth of the dock's level axis ahead: the
+        line-of-sight law in the vertical. Pointing the nose at the dock instead closes a depth error
+        only as fast as the range and arrives climbing or diving."""
+        c = self.config
+        if s.dock_below_m is None:
+            return None
+        lookahead = _clamp(c.lookahead_share * g.along, c.lookahead_min_m, c.lookahead_max_m)
+        sink = s.dock_below_m * self._ground_speed(s, yaw, speed) / lookahead  # m/s down, level at the lookahead
+        limit = math.radians(c.max_pitch_deg)
+        pitch = -math.asin(_clamp(sink / max(speed, c.min_speed_mps), -math.sin(limit), math.sin(limit)))
+        if g.distance > c.fov_until_m:  # the dock stays in the frame
+            elevation = -math.atan2(s.dock_below_m, g.distance)
+            margin = math.radians(c.fov_vertical_margin_deg)
+            pitch = _clamp(pitch, elevation - margin, elevation + margin)
+        return pitch
+
+    def _ground_speed(self, s: Situation, yaw: float, speed: float) -> float:
+        h = _unit(yaw)
+        ground = math.hypot(speed * h[0] + s.current_mps[0], speed * h[1] + s.current_mps[1])
+        return max(ground, self.config.min_speed_mps)
+
+    def _climb_speed(self, s: Situation, g: _Geometry) -> float:
+        """Least speed through the water that reaches the dock's depth before the entry at the pitch the
+        vehicle holds: a current setting towards the dock shortens the time there is for the climb."""
+        c = self.config
+        need = abs(s.dock_below_m or 0.0)
+        if need < 0.05:
+            return 0.0
+        room = max(g.along - c.level_by_m, 0.0) * math.sin(math.radians(c.climb_pitch_deg)) - need
+        following = max(0.0, _dot(s.current_mps, _unit(g.axis_yaw)))
+        return c.max_speed_mps if room <= 0.05 else need * following / room
+
+    def _depth_left(self, s: Situation, g: _Geometry, yaw: float, speed: float) -> float:
+        """Depth error still left at the entrance, climbing at the held pitch from here."""
+        need = abs(s.dock_below_m or 0.0)
+        reach = g.along / self._ground_speed(s, yaw, speed) * abs(speed) * math.sin(
+            math.radians(self.config.climb_pitch_deg))
+        return max(0.0, need - reach)
 
     def _geometry(self, s: Situation) -> _Geometry:
         h = _unit(s.heading_rad)
@@ -187,7 +262,7 @@ class ApproachPlanner:
         crab_limit = math.radians(c.entry_crab_deg + (c.far_crab_deg - c.entry_crab_deg) * _clamp(
             (g.along - c.crab_near_m) / (c.crab_far_m - c.crab_near_m), 0.0, 1.0))
         nominal = max(s.nominal_speed_mps, c.entry_speed_mps) if g.along < c.crab_near_m else s.nominal_speed_mps
-        speed, yaw = self._crab(course, s.current_mps, nominal, crab_limit)
+        speed, yaw = self._crab(course, s.current_mps, nominal, crab_limit, self._climb_speed(s, g))
         limit = math.radians(c.entry_crab_deg + c.heading_limit_growth_deg_per_m * max(0.0, g.along - 2.0))
         yaw = g.axis_yaw + _clamp(wrap_angle(yaw - g.axis_yaw), -limit, limit)
         if g.distance > c.fov_until_m:
@@ -236,13 +311,14 @@ class ApproachPlanner:
         drift = wrap_angle(math.atan2(ground[1], ground[0]) - axis_yaw)
         return drift + math.copysign(math.radians(c.line_margin_deg), drift)
 
-    def _crab(self, course: float, current: tuple[float, float], nominal: float, crab_limit: float
-              ) -> tuple[float, float]:
-        """Speed through the water and heading that make the ground velocity point along ``course``."""
+    def _crab(self, course: float, current: tuple[float, float], nominal: float, crab_limit: float,
+              least: float = 0.0) -> tuple[float, float]:
+        """Speed through the water (at least ``least``) and heading that make the ground velocity point along
+        ``course``."""
         c = self.config
         along = _dot(current, _unit(course))
         across = _dot(current, _unit(course + math.pi / 2))
-        speed = max(nominal - along, abs(across) / math.sin(crab_limit), c.min_speed_mps)
+        speed = max(nominal - along, abs(across) / math.sin(crab_limit), c.min_speed_mps, least)
         speed = min(speed, c.max_speed_mps)
         crab = math.asin(_clamp(across / speed, -1.0, 1.0))
         return speed, course - crab
@@ -284,19 +360,39 @@ class ApproachPlanner:
         return Plan(wrap_angle(yaw), -self.config.max_speed_mps, Verdict.GO, g.along, g.cross, None, sidestep=True)
 
     def _back_off(self, s: Situation, g: _Geometry) -> Plan:
-        """In reverse, nose on the dock, to a point on the line further out."""
+        """To a point on the line further out, then face the dock: in reverse with the nose on the dock, or
+        blind where reversing there would take the dock out of view (see the module docstring)."""
         c = self.config
         line = _unit(g.line_yaw)
-        goal = (-c.back_off_to_m * line[0], -c.back_off_to_m * line[1])
+        blind = self._back_off_phase is _BackOff.BLIND
+        out = c.reposition_to_m if blind else c.back_off_to_m
+        goal = (-out * line[0], -out * line[1])
+        if blind:  # up-current of the line by what the current carries the vehicle while it turns to the dock
+            turning_s = abs(wrap_angle(s.heading_rad - g.sight)) / math.radians(c.turn_rate_deg_s)
+            goal = (goal[0] - turning_s * s.current_mps[0], goal[1] - turning_s * s.current_mps[1])
         to_goal = (goal[0] - g.nose[0], goal[1] - g.nose[1])
         gap = math.hypot(*to_goal)
-        verdict = Verdict.BACKED_OFF if gap < 1.0 or g.along >= c.back_off_to_m - 0.5 else Verdict.GO
-        want = (c.back_off_speed_mps * to_goal[0] / max(gap, 1e-6), c.back_off_speed_mps * to_goal[1] / max(gap, 1e-6))
+        if gap < 1.0:
+            self._back_off_phase = _BackOff.FACE
+        if self._back_off_phase is _BackOff.FACE:  # hold against the current along the nose while turning
+            facing = abs(wrap_angle(s.heading_rad - g.sight)) < math.radians(c.facing_deg)
+            return Plan(wrap_angle(g.sight), -_dot(s.current_mps, _unit(g.sight)),
+                        Verdict.BACKED_OFF if facing else Verdict.GO, g.along, g.cross, None, blind=not facing)
+        ground = min(c.reposition_speed_mps if blind else c.back_off_speed_mps, 0.5 * gap)
+        want = (ground * to_goal[0] / gap, ground * to_goal[1] / gap)
         water = (want[0] - s.current_mps[0], want[1] - s.current_mps[1])
-        speed = -min(math.hypot(*water), c.max_speed_mps)
-        wanted = math.atan2(-water[1], -water[0])
+        reverse = math.atan2(-water[1], -water[0])
         fov = math.radians(c.fov_margin_deg)
-        yaw = g.sight + _clamp(wrap_angle(wanted - g.sight), -fov, fov)
-        if abs(wrap_angle(yaw - wanted)) > 1e-6:  # the camera limits the heading: make up with speed
+        beyond_view = abs(wrap_angle(reverse - g.sight)) - fov
+        if g.along >= c.reposition_from_m and (
+                beyond_view > math.radians(c.reposition_beyond_view_deg) or g.along > c.back_off_to_m + 1.0):
+            self._back_off_phase = _BackOff.BLIND
+        if self._back_off_phase is _BackOff.BLIND:
+            yaw = math.atan2(water[1], water[0])  # ahead only once turned that way (turn in place first)
+            speed = min(math.hypot(*water), c.max_speed_mps) * max(0.0, math.cos(wrap_angle(yaw - s.heading_rad)))
+            return Plan(yaw, speed, Verdict.GO, g.along, g.cross, None, blind=True)
+        speed = -min(math.hypot(*water), c.max_speed_mps)
+        yaw = g.sight + _clamp(wrap_angle(reverse - g.sight), -fov, fov)
+        if beyond_view > 0:  # the camera limits the heading: make up with speed
             speed = -c.max_speed_mps
-        return Plan(wrap_angle(yaw), speed, verdict, g.along, g.cross, None)
+        return Plan(wrap_angle(yaw), speed, Verdict.GO, g.along, g.cross, None)

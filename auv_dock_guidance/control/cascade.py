@@ -9,7 +9,7 @@ Inner loop (at the control rate): the setpoints against the attitude measured by
 main controller's navigation become yaw and pitch moments. Surge follows a speed
 schedule by range (the paper approached at 0.41 m/s), slowing for the terminal phase;
 a negative speed backs off in reverse. Beyond the paper, the approach path
-(``approach.py``) may set the heading goal instead of the bearing (``steer_yaw``).
+(``approach.py``) may set the heading and pitch goals instead of the bearing (``steer``).
 
 Conventions: attitude as the navigation reports it (aerospace: pitch positive nose up,
 yaw positive turning to starboard), radians. Camera bearings: yaw positive = dock to the
@@ -133,10 +133,12 @@ class CascadeController:
         pitch_goal = max(-c.max_pitch_setpoint_rad, min(c.max_pitch_setpoint_rad, attitude_at_frame.pitch_rad - dive))
         self._goal = (wrap_angle(attitude_at_frame.yaw_rad + yaw_turn), pitch_goal)
 
-    def steer_yaw(self, yaw_rad: float, level: bool = False) -> None:
-        """A heading goal from the approach path instead of the bearing; ``level`` also levels the pitch goal."""
-        pitch = 0.0 if level or self._goal is None else self._goal[1]
-        self._goal = (wrap_angle(yaw_rad), pitch)
+    def steer(self, yaw_rad: float, pitch_rad: float | None) -> None:
+        """Heading (and pitch, unless None: then the bearing's) goals from the approach path instead of the bearing."""
+        c = self.config
+        if pitch_rad is None:
+            pitch_rad = 0.0 if self._goal is None else self._goal[1]
+        self._goal = (wrap_angle(yaw_rad), max(-c.max_pitch_setpoint_rad, min(c.max_pitch_setpoint_rad, pitch_rad)))
 
     def hold(self, yaw_rad: float, pitch_rad: float) -> None:
         """Keep a fixed attitude goal (search: current heading, level)."""

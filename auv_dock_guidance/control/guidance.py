@@ -17,9 +17,11 @@ States:
 * TRACK may sidestep (``Plan.sidestep``): back off sideways in reverse, the dock in view,
   when the approach line is out of reach; counted in ``sidesteps``.
 * RETRY: the approach path predicted that the entry would miss (too far off the centre
-  close in): instead of ramming, back off in reverse with the nose on the dock to a point
-  on the approach line further out, then TRACK again. Drives like TRACK (a fresh
-  detection within ``track_lost_timeout_s``); more than ``max_retries``: ABORT.
+  close in): instead of ramming, back off to a point on the approach line further out
+  (in reverse with the nose on the dock, or turned round and blind on the track where
+  reversing there would lose the dock from view), face the dock, and TRACK again once it
+  is seen. Without a detection for ``retry_blind_timeout_s``: SEARCH. More than
+  ``max_retries``: ABORT.
 * DOCKED: the main controller reports the latch, or in TERMINAL the dead-reckoned run
   since the last sighting covers the last range plus a margin (on the approach path: the
   tracked nose, own motion and drift, is that margin past the entrance).
@@ -32,7 +34,9 @@ Steering: the paper's bearing homing (nose on the dock), or, with ``velocity_ste
 and/or ``axis_alignment``, the approach path (``approach.py``): the dock tracked in the
 level frame with the current estimated from the drift (``tracker.py``), the dock's axis
 from the ring normals (``axis.py``), the velocity steered onto the axis and crabbed into
-the current.
+the current, and the pitch bringing the vehicle to the dock's depth ahead (the dock below,
+from each detection in the level frame, carried on by the vehicle's own climb between
+frames; level while backing off).
 
 Only TRACK, TERMINAL and RETRY ever command thrust, and only with fresh telemetry and a live
 camera (when the caller reports frames with ``frame_processed``). Fresh means neither
@@ -59,7 +63,7 @@ from auv_dock_guidance.control.approach import ApproachConfig, ApproachPlanner, 
 from auv_dock_guidance.control.axis import AxisConfig, AxisEstimator
 from auv_dock_guidance.control.cascade import Attitude, CascadeConfig, CascadeController, Demands, Target
 from auv_dock_guidance.control.mixer import Mixer, MixerConfig, ThrusterCommand
-from auv_dock_guidance.control.tracker import DockTracker, TrackerConfig
+from auv_dock_guidance.control.tracker import DockTracker, TrackerConfig, dock_from_camera, level_from_body
 from auv_dock_guidance.errors import ConfigError
 from auv_dock_guidance.stamps import StampGate
 
@@ -93,6 +97,7 @@ class GuidanceConfig:
     velocity_steering: bool = True  # track the dock in the level frame, estimate the current, crab into it
     axis_alignment: bool = True  # line up with the dock's axis (from the ring normals) before the entry
     max_retries: int = 3  # backing off this many times and still missing: ABORT
+    retry_blind_timeout_s: float = 40.0  # RETRY without a detection this long (turned round to get back) -> SEARCH
     speed_time_constant_s: float = 1.0  # how fast the vehicle's speed through the water follows its thrust
     cascade: CascadeConfig = field(default_factory=CascadeConfig)
     mixer: MixerConfig = field(default_factory=MixerConfig)
@@ -103,7 +108,7 @@ class GuidanceConfig:
     def __post_init__(self) -> None:
         positive = (
             self.terminal_range_m, self.track_lost_timeout_s, self.terminal_lost_timeout_s, self.search_timeout_s,
-            self.terminal_blind_timeout_s,
+            self.terminal_blind_timeout_s, self.retry_blind_timeout_s,
             self.telemetry_timeout_s, self.detection_max_age_s, self.max_roll_rad, self.max_pitch_rad,
             self.blind_range_m, self.camera_timeout_s, self.recovery_s, self.speed_time_constant_s,
         )
@@ -187,6 +192,8 @@ class Guidance:
         self._run_since_sighting = 0.0
         self._last_update_s: float | None = None
         self._target_gate = StampGate()
+        self._dock_below_m: float | None = None  # the entrance centre below the reference point (level frame)
+        self._entry_checked = False  # the entry was predicted since the vehicle came within the commit distance
 
     def _follow_clock(self, now_s: float) -> None:
         """Move every remembered time back with a backward clock step, so timers keep counting."""
@@ -276,7 +283,12 @@ class Guidance:
             self._own_motion(dt, attitude)
             if target is not None:
                 self._observe(target, attitude)
-            plan = self._plan(attitude, predict_entry=target is not None)
+            # The entry is checked with each new detection, and once on crossing the commit distance
+            # even without one (the ring may be out of sight just then).
+            plan = self._plan(attitude, predict_entry=target is not None or not self._entry_checked)
+            if plan is not None:
+                self._entry_checked = plan.along_m < c.approach.commit_m and (
+                    self._entry_checked or plan.predicted_miss_m is not None or plan.verdict is Verdict.WOULD_MISS)
             sidestepping = plan is not None and plan.sidestep and self.state is State.TRACK
             self.sidesteps += sidestepping and not self._sidestepping
             self._sidestepping = sidestepping
@@ -299,7 +311,7 @@ class Guidance:
             if (self.state is State.RETRY) != (before is State.RETRY):
                 plan = self._plan(attitude, predict_entry=False)
             assert plan is not None  # the tracker has a fix once anything was seen
-            self.cascade.steer_yaw(plan.yaw_rad, level=self.state is State.RETRY)
+            self.cascade.steer(plan.yaw_rad, 0.0 if self.state is State.RETRY else plan.pitch_rad)
             speed = plan.speed_mps
         else:
             speed = self.cascade.speed_for_range(seen)
@@ -319,9 +331,13 @@ class Guidance:
         self._water_speed += (steady - self._water_speed) * min(1.0, dt / self.config.speed_time_constant_s)
         run = self._water_speed * dt * math.cos(attitude.pitch_rad)
         self.tracker.predict(dt, (run * math.cos(attitude.yaw_rad), run * math.sin(attitude.yaw_rad)))
+        if self._dock_below_m is not None:  # climbing leaves the dock deeper below
+            self._dock_below_m += self._water_speed * dt * math.sin(attitude.pitch_rad)
 
     def _observe(self, target: Target, attitude: Attitude) -> None:
         self.tracker.update(target, attitude)
+        camera_below = float(level_from_body(attitude)[2, 0]) * self.config.tracker.camera_ahead_m
+        self._dock_below_m = float(dock_from_camera(target, attitude)[2]) + camera_below
         if self.config.axis_alignment and target.axis_optical is not None:
             self.axis.observe(target, target.axis_optical, attitude)
 
@@ -336,7 +352,7 @@ class Guidance:
             water_speed_mps=self._water_speed, axis_yaw_rad=axis.yaw_rad if axis is not None else None,
             camera_ahead_m=self.config.tracker.camera_ahead_m,
             nominal_speed_mps=self.cascade.speed_for_range(range_m - self.config.tracker.camera_ahead_m),
-            axis_known=axis is not None and axis.known,
+            axis_known=axis is not None and axis.known, dock_below_m=self._dock_below_m,
         )
         return self.planner.plan(situation, backing_off=self.state is State.RETRY, predict_entry=predict_entry)
 
@@ -396,6 +412,8 @@ class Guidance:
         elif would_miss and previous in (State.TRACK, State.TERMINAL):
             assert plan is not None  # would_miss needs one
             miss = "not closing" if plan.predicted_miss_m is None else f"{plan.predicted_miss_m:+.2f} m off the centre"
+            if plan.depth_left_m:
+                miss += f", {plan.depth_left_m:.2f} m off the dock's depth"
             if self.retries >= c.max_retries:
                 new_state, reason = State.ABORT, f"entry would miss ({miss}) after {self.retries} retries"
             else:
@@ -403,9 +421,9 @@ class Guidance:
                 new_state = State.RETRY
                 reason = f"entry would miss ({miss}) {plan.along_m:.1f} m out: back off, retry {self.retries}"
         elif previous is State.RETRY:
-            if lost_for > c.track_lost_timeout_s:
-                new_state, reason = State.SEARCH, f"marker lost for {lost_for:.1f} s"
-            elif plan is not None and plan.verdict is Verdict.BACKED_OFF:
+            if lost_for > c.retry_blind_timeout_s:
+                new_state, reason = State.SEARCH, f"marker lost for {lost_for:.1f} s while backing off"
+            elif plan is not None and plan.verdict is Verdict.BACKED_OFF and lost_for <= c.track_lost_timeout_s:
                 new_state, reason = State.TRACK, f"backed off to {plan.along_m:.1f} m: approach again"
         elif previous is State.TRACK:
             if target is not None and target.range_m < c.terminal_range_m:

@@ -83,6 +83,8 @@ PARAMS = [
     Param("velocity_steering", True, "track the dock in the level frame and crab into the estimated current"),
     Param("axis_alignment", True, "line up with the dock's axis (the orientation on dock/pose) before the entry"),
     Param("max_retries", 3, "back off and retry this often when the entry would miss, then abort", 0, 20),
+    Param("retry_blind_timeout_s", 40.0, "backing off (perhaps turned round) without a detection this long: search (s)",
+          1.0, 600.0),
     Param("max_speed_mps", 0.9, "fastest approach through the water, used against a cross current (m/s)", 0.1, 5.0),
     Param("entry_crab_deg", 10.0, "largest heading off the dock's axis for the last metres (deg)", 1.0, 30.0),
     Param("sidestep", False, "back off sideways in reverse when the approach line is out of reach (else retry)"),
@@ -102,6 +104,7 @@ def guidance_config(v: dict[str, Any], mixer: MixerConfig, camera_ahead_m: float
                               sidestep=v["sidestep"])
     return GuidanceConfig(
         velocity_steering=v["velocity_steering"], axis_alignment=v["axis_alignment"], max_retries=v["max_retries"],
+        retry_blind_timeout_s=v["retry_blind_timeout_s"],
         approach=approach, tracker=TrackerConfig(camera_ahead_m=camera_ahead_m),
         confirm_frames=v["confirm_frames"], terminal_range_m=v["terminal_range_m"], blind_range_m=v["blind_range_m"],
         track_lost_timeout_s=v["track_lost_timeout_s"], terminal_lost_timeout_s=v["terminal_lost_timeout_s"],

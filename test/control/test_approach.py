@@ -5,6 +5,7 @@ check the guidance law itself; the closed loop with the real detector is in test
 """
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -36,7 +37,8 @@ class KinematicAuv:
 
     def step(self, yaw_goal, speed_goal, dt):
         turn = math.remainder(yaw_goal - self.heading, 2 * math.pi)
-        self.heading += max(-math.radians(20) * dt, min(math.radians(20) * dt, turn))
+        self.heading = math.remainder(self.heading + max(-math.radians(20) * dt, min(math.radians(20) * dt, turn)),
+                                      2 * math.pi)
         self.speed += (speed_goal - self.speed) * dt
         h = np.array([math.cos(self.heading), math.sin(self.heading)])
         self.position = self.position + dt * (self.speed * h + self.current)
@@ -46,15 +48,17 @@ class KinematicAuv:
         return self.position + AHEAD * np.array([math.cos(self.heading), math.sin(self.heading)])
 
 
-def fly(guidance, auv, seconds=200.0, dt=0.05, frame_every=2):
-    """Guidance with the kinematic vehicle until the nose crosses the entrance plane (x = 0)."""
+def fly(guidance, auv, seconds=200.0, dt=0.05, frame_every=2, unseen_within_m=0.0, until=(State.ABORT,)):
+    """Guidance with the kinematic vehicle until the nose crosses the entrance plane (x = 0) or a state
+    in ``until`` is reached; the ring is seen when within 0.5 rad of the nose and beyond ``unseen_within_m``."""
     t = 0.0
     for i in range(int(seconds / dt)):
         attitude = Attitude(t, 0.0, 0.0, auv.heading, 8.0)
         target = None
         if i % frame_every == 0:
             guidance.frame_processed(t)
-            if abs(math.remainder(math.atan2(-auv.nose[1], -auv.nose[0]) - auv.heading, 2 * math.pi)) < 0.5:
+            in_view = abs(math.remainder(math.atan2(-auv.nose[1], -auv.nose[0]) - auv.heading, 2 * math.pi)) < 0.5
+            if in_view and np.linalg.norm(auv.nose) > unseen_within_m:
                 target = sighting(auv.position, auv.heading, t)
         out = guidance.update(t, target, attitude)
         if out.demands is not None:
@@ -62,7 +66,7 @@ def fly(guidance, auv, seconds=200.0, dt=0.05, frame_every=2):
         else:
             auv.step(auv.heading, 0.0, dt)
         t += dt
-        if auv.nose[0] >= 0.0 or out.state is State.ABORT:
+        if auv.nose[0] >= 0.0 or out.state in until:
             break
     return out
 
@@ -134,6 +138,107 @@ def test_forty_degrees_off_the_axis_lines_up_before_the_entry():
     assert out.state is not State.ABORT, out.transition
     assert abs(auv.nose[1]) < 0.05
     assert abs(auv.heading) < math.radians(10)
+
+
+def test_backing_off_where_reversing_would_lose_the_dock_it_turns_round_and_faces_the_dock_at_the_point():
+    """5 m out and 3 m to starboard, the current setting further to starboard: reversing to the line
+    would point the nose 40+ deg off the dock, so it turns round and drives out blind."""
+    planner = ApproachPlanner()
+    c = planner.config
+    position, current = (-5.0 - AHEAD, 3.0), (0.0, 0.2)
+    sight = math.atan2(-3.0, 5.0)
+    out = planner.plan(Situation(position, current, sight, -0.4, 0.0, AHEAD, 0.4, axis_known=True), backing_off=True)
+    assert out.blind and out.speed_mps >= 0.0
+    assert abs(math.remainder(out.yaw_rad - sight, 2 * math.pi)) > math.radians(c.fov_margin_deg + 45)
+    turned = planner.plan(Situation(position, current, out.yaw_rad, 0.0, 0.0, AHEAD, 0.4, axis_known=True),
+                          backing_off=True)
+    assert turned.blind and turned.speed_mps > 0.3  # ahead once pointing the way
+    at_point = (-c.reposition_to_m + AHEAD, 0.0)  # the nose on the line, pointing away from the dock
+    arriving = planner.plan(Situation(at_point, current, math.pi, 0.7, 0.0, AHEAD, 0.4, axis_known=True),
+                            backing_off=True)
+    assert arriving.blind and arriving.verdict is Verdict.GO  # turning 180 deg drifts 1.8 m: the point is up-current
+    near_point = (at_point[0], at_point[1] - 9.0 * 0.2)
+    facing = planner.plan(Situation(near_point, current, math.pi, 0.7, 0.0, AHEAD, 0.4, axis_known=True),
+                          backing_off=True)
+    assert facing.verdict is Verdict.GO and abs(math.remainder(facing.yaw_rad, 2 * math.pi)) < 0.2  # turn to it
+    faced = planner.plan(Situation(near_point, current, facing.yaw_rad, 0.0, 0.0, AHEAD, 0.4, axis_known=True),
+                         backing_off=True)
+    assert faced.verdict is Verdict.BACKED_OFF and not faced.blind
+
+
+def test_far_round_the_dock_in_a_strong_cross_current_one_blind_retry_brings_it_in():
+    """20 deg off the axis 10 m out, 0.25 m/s across: the first approach would miss; reversing with the
+    nose on the dock cannot reach the line against the current (three such retries missed), so it
+    turns round, runs out to a long final up-current of the line and enters from there."""
+    start = 10.0 * np.array([-math.cos(math.radians(20)), math.sin(math.radians(20))])
+    auv = KinematicAuv(start, math.atan2(-start[1], -start[0]), (0.0, 0.25))
+    guidance = Guidance()
+    out = fly(guidance, auv, seconds=300.0)
+    assert out.state is not State.ABORT, out.transition
+    assert guidance.retries == 1
+    assert abs(auv.nose[1]) < 0.05 and abs(auv.heading) < math.radians(10)
+
+
+def test_a_retry_that_never_sees_the_dock_again_searches_after_its_blind_timeout():
+    """RETRY goes on without detections (it may be turned round), but not for ever."""
+    start = 10.0 * np.array([-math.cos(math.radians(20)), math.sin(math.radians(20))])
+    auv = KinematicAuv(start, math.atan2(-start[1], -start[0]), (0.0, 0.25))
+    guidance = Guidance()
+    t, dt, retry_since, states = 0.0, 0.05, None, []
+    while t < 80.0:
+        attitude = Attitude(t, 0.0, 0.0, auv.heading, 8.0)
+        guidance.frame_processed(t)
+        seen = abs(math.remainder(math.atan2(-auv.nose[1], -auv.nose[0]) - auv.heading, 2 * math.pi)) < 0.5
+        out = guidance.update(t, sighting(auv.position, auv.heading, t) if seen and retry_since is None else None,
+                              attitude)
+        if out.state is State.RETRY and retry_since is None:
+            retry_since = t  # from here on the camera sees nothing
+        if retry_since is not None:
+            states.append((t - retry_since, out.state))
+        if out.demands is not None:
+            auv.step(out.demands.yaw_setpoint_rad, out.demands.speed_setpoint_mps, dt)
+        t += dt
+    limit = guidance.config.retry_blind_timeout_s
+    assert all(state is State.RETRY for since, state in states if since < limit - 0.1)
+    assert {state for since, state in states if since > limit + 0.1} == {State.SEARCH}
+
+
+def test_the_entry_is_checked_on_crossing_the_commit_distance_even_with_the_ring_out_of_sight():
+    """35 deg off the axis 9 m out the first approach would miss; the ring is not seen inside 3.5 m,
+    so the check must run on the track alone rather than wait for a detection that never comes."""
+    start = 9.0 * np.array([-math.cos(math.radians(35)), math.sin(math.radians(35))])
+    auv = KinematicAuv(start, math.atan2(-start[1], -start[0]), (0.0, 0.0))
+    out = fly(Guidance(), auv, seconds=60.0, unseen_within_m=3.5, until=(State.ABORT, State.RETRY))
+    assert out.state is State.RETRY, out.transition
+
+
+def test_below_the_dock_the_pitch_goal_climbs_to_its_depth_ahead_and_is_level_on_it():
+    planner = ApproachPlanner()
+    c = planner.config
+    far = Situation((-10.0, 0.0), (0.0, 0.0), 0.0, 0.4, 0.0, AHEAD, 0.41, dock_below_m=-1.5)  # 1.5 m above
+    climb = planner.plan(far, backing_off=False).pitch_rad
+    elevation = math.atan2(1.5, 10.0 - AHEAD)
+    assert math.radians(10) < climb <= elevation + math.radians(c.fov_vertical_margin_deg) + 1e-9
+    level = planner.plan(replace(far, dock_below_m=0.0), backing_off=False).pitch_rad
+    assert level == 0.0
+    unknown = planner.plan(replace(far, dock_below_m=None), backing_off=False).pitch_rad
+    assert unknown is None  # the bearing's pitch (the paper's)
+
+
+def test_a_current_setting_into_the_dock_makes_it_climb_faster_through_the_water():
+    """The current shortens the time left for the climb; only speed through the water climbs."""
+    planner = ApproachPlanner()
+    at_depth = Situation((-9.0, 0.0), (0.25, 0.0), 0.0, 0.2, 0.0, AHEAD, 0.3, dock_below_m=0.0)
+    below = replace(at_depth, dock_below_m=-1.5)
+    assert planner.plan(below, backing_off=False).speed_mps > planner.plan(at_depth, backing_off=False).speed_mps + 0.2
+
+
+def test_on_centre_but_still_well_below_the_dock_close_in_the_entry_would_miss():
+    planner = ApproachPlanner()
+    on_centre = Situation((-2.8 - AHEAD, 0.0), (0.0, 0.0), 0.0, 0.3, 0.0, AHEAD, 0.25, dock_below_m=0.0)
+    assert planner.plan(on_centre, backing_off=False).verdict is Verdict.GO
+    below = replace(on_centre, dock_below_m=-0.9)
+    assert planner.plan(below, backing_off=False).verdict is Verdict.WOULD_MISS
 
 
 SIDESTEPPING = GuidanceConfig(approach=ApproachConfig(sidestep=True))

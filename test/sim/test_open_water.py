@@ -25,3 +25,13 @@ def test_forty_degrees_off_the_axis_docks_with_the_defaults():
     assert abs(result.start_off_axis_deg) > 39.0
     assert result.success, (result.reason, result.entry_lateral_error_m, result.entry_heading_error_deg)
     assert result.entry_lateral_error_m < 0.12 and result.entry_heading_error_deg < 12.0
+
+
+def test_a_start_well_below_the_dock_with_the_current_setting_in_climbs_to_its_depth_and_docks():
+    """11 m out, 1.7 m below, a current setting towards the dock: pointing the nose at the dock climbed
+    too slowly and arrived 0.45 m low and 20 deg nose up."""
+    start = OpenWaterStart(range_m=11.0, off_axis_deg=3.0, heading_off_deg=5.0, depth_off_m=-1.7,
+                           current_along_mps=0.25)
+    result = run_episode(EpisodeConfig(scenario="open-water", start=start), seed=70)
+    assert result.success, (result.reason, result.entry_lateral_error_m, result.entry_heading_error_deg)
+    assert result.entry_lateral_error_m < 0.12 and result.entry_heading_error_deg < 12.0
