@@ -194,24 +194,24 @@ class ApproachPlanner:
             s = replace(s, nominal_speed_mps=c.max_speed_mps)  # the line is barely in reach: the most lead there is
         yaw, speed = self._steer(s, geometry)
         along, cross = geometry.along, geometry.cross
+        ground = self._ground_speed(s, yaw, speed)
         verdict, predicted, depth_left = Verdict.GO, None, None
         if along < c.commit_m and predict_entry:
             predicted = self._rolled_out_miss(s, yaw, speed)
-            depth_left = self._depth_left(s, geometry, yaw, speed)
+            depth_left = self._depth_left(s, geometry, ground, speed)
             if predicted is None or abs(predicted) > c.entry_tolerance_m or depth_left > c.entry_tolerance_m:
                 verdict = Verdict.WOULD_MISS
         return Plan(wrap_angle(yaw), speed, verdict, along, cross, predicted, depth_left,
-                    self._pitch(s, geometry, yaw, speed))
+                    self._pitch(s, geometry, ground, speed))
 
-    def _pitch(self, s: Situation, g: _Geometry, yaw: float, speed: float) -> float | None:
+    def _pitch(self, s: Situation, g: _Geometry, ground: float, speed: float) -> float | None:
         """Pitch goal (nose up +) that brings the vehicle to the depth of the dock's level axis ahead: the
         line-of-sight law in the vertical. Pointing the nose at the dock instead closes a depth error
         only as fast as the range and arrives climbing or diving."""
         c = self.config
         if s.dock_below_m is None:
             return None
-        lookahead = _clamp(c.lookahead_share * g.along, c.lookahead_min_m, c.lookahead_max_m)
-        sink = s.dock_below_m * self._ground_speed(s, yaw, speed) / lookahead  # m/s down, level at the lookahead
+        sink = s.dock_below_m * ground / self._lookahead(g.along)  # m/s down, level at the lookahead
         limit = math.radians(c.max_pitch_deg)
         pitch = -math.asin(_clamp(sink / max(speed, c.min_speed_mps), -math.sin(limit), math.sin(limit)))
         if g.distance > c.fov_until_m:  # the dock stays in the frame
@@ -225,6 +225,15 @@ class ApproachPlanner:
         ground = math.hypot(speed * h[0] + s.current_mps[0], speed * h[1] + s.current_mps[1])
         return max(ground, self.config.min_speed_mps)
 
+    def _lookahead(self, distance: float) -> float:
+        """Distance ahead on the line (or level axis) that the line-of-sight laws aim at."""
+        c = self.config
+        return _clamp(c.lookahead_share * distance, c.lookahead_min_m, c.lookahead_max_m)
+
+    def _climb_per_metre(self) -> float:
+        """Depth gained per metre travelled through the water at the pitch the vehicle holds."""
+        return math.sin(math.radians(self.config.climb_pitch_deg))
+
     def _climb_speed(self, s: Situation, g: _Geometry) -> float:
         """Least speed through the water that reaches the dock's depth before the entry at the pitch the
         vehicle holds: a current setting towards the dock shortens the time there is for the climb."""
@@ -232,16 +241,14 @@ class ApproachPlanner:
         need = abs(s.dock_below_m or 0.0)
         if need < 0.05:
             return 0.0
-        room = max(g.along - c.level_by_m, 0.0) * math.sin(math.radians(c.climb_pitch_deg)) - need
+        room = max(g.along - c.level_by_m, 0.0) * self._climb_per_metre() - need
         following = max(0.0, _dot(s.current_mps, _unit(g.axis_yaw)))
         return c.max_speed_mps if room <= 0.05 else need * following / room
 
-    def _depth_left(self, s: Situation, g: _Geometry, yaw: float, speed: float) -> float:
+    def _depth_left(self, s: Situation, g: _Geometry, ground: float, speed: float) -> float:
         """Depth error still left at the entrance, climbing at the held pitch from here."""
-        need = abs(s.dock_below_m or 0.0)
-        reach = g.along / self._ground_speed(s, yaw, speed) * abs(speed) * math.sin(
-            math.radians(self.config.climb_pitch_deg))
-        return max(0.0, need - reach)
+        reach = g.along / ground * abs(speed) * self._climb_per_metre()
+        return max(0.0, abs(s.dock_below_m or 0.0) - reach)
 
     def _geometry(self, s: Situation) -> _Geometry:
         h = _unit(s.heading_rad)
@@ -257,8 +264,7 @@ class ApproachPlanner:
         c = self.config
         line, line_side = _unit(g.line_yaw), _unit(g.line_yaw + math.pi / 2)
         on_line, off_line = -_dot(g.nose, line), _dot(g.nose, line_side)
-        lookahead = _clamp(c.lookahead_share * on_line, c.lookahead_min_m, c.lookahead_max_m)
-        course = g.line_yaw - math.atan2(off_line, lookahead)
+        course = g.line_yaw - math.atan2(off_line, self._lookahead(on_line))
         crab_limit = math.radians(c.entry_crab_deg + (c.far_crab_deg - c.entry_crab_deg) * _clamp(
             (g.along - c.crab_near_m) / (c.crab_far_m - c.crab_near_m), 0.0, 1.0))
         nominal = max(s.nominal_speed_mps, c.entry_speed_mps) if g.along < c.crab_near_m else s.nominal_speed_mps
@@ -386,8 +392,10 @@ class ApproachPlanner:
         beyond_view = abs(wrap_angle(reverse - g.sight)) - fov
         if g.along >= c.reposition_from_m and (
                 beyond_view > math.radians(c.reposition_beyond_view_deg) or g.along > c.back_off_to_m + 1.0):
-            self._back_off_phase = _BackOff.BLIND
-        if self._back_off_phase is _BackOff.BLIND:
+            if not blind:  # from this tick on the blind goal and speed
+                self._back_off_phase = _BackOff.BLIND
+                return self._back_off(s, g)
+        if blind:
             yaw = math.atan2(water[1], water[0])  # ahead only once turned that way (turn in place first)
             speed = min(math.hypot(*water), c.max_speed_mps) * max(0.0, math.cos(wrap_angle(yaw - s.heading_rad)))
             return Plan(yaw, speed, Verdict.GO, g.along, g.cross, None, blind=True)
