@@ -9,6 +9,18 @@ candidates; the estimate is the direction that explains most observations (each 
 nearer of its two candidates), and it counts as known only once the mirror about the
 present line of sight explains them clearly worse (the vehicle has seen the dock from
 more than one direction), or when the two coincide (the vehicle is on the axis).
+
+Each observation is weighed by the detector's own standard deviation of the tilt
+(``Target.axis_sigma_rad``, from the outline's scatter; inflated by ``reported_sigma_scale``
+for what the scatter does not show, such as the halo rounding a far ring), not by a fixed
+model of range: near head-on the tilt comes from the square root of the ellipse's flattening,
+so a dock seen from 5-10 m can scatter by 10 deg while another is good to 1 deg. A fixed
+model took such scatter for signal and settled on an axis 10-20 deg off.
+
+Views from much farther than the present one are left out of the estimate (``superseded_ratio``):
+far out the halo rounds the ring's image, so a tilted dock looks head-on again and again,
+and a hundred such views, wrong the same way, outvoted the few close ones that see the tilt
+(their errors are not independent, so their number is no evidence).
 """
 
 from __future__ import annotations
@@ -26,8 +38,11 @@ from auv_dock_guidance.control.tracker import dock_from_camera, optical_to_level
 
 @dataclass(frozen=True)
 class AxisConfig:
-    noise_deg_at_zero: float = 0.5  # angle noise of one observation close in...
-    noise_deg_per_m2: float = 0.01  # ...growing with the square of the range (the ring shrinks, its tilt blurs)
+    noise_deg_at_zero: float = 0.5  # least angle noise of one observation close in...
+    noise_deg_per_m2: float = 0.01  # ...growing with the square of the range (used alone when none is reported)
+    reported_sigma_scale: float = 1.5  # the detector's tilt sigma times this (measured errors: median 1, p90 2.4)
+    max_sigma_deg: float = 15.0  # observations less certain than this are left out (10 deg as reported)
+    superseded_ratio: float = 2.0  # views from farther than this times the present range are left out
     outlier_sigmas: float = 3.0  # an observation further than this from both candidates counts as an outlier
     min_observations: int = 5
     min_margin: float = 16.0  # cost (squared sigmas) by which the mirror must explain the observations worse
@@ -51,8 +66,8 @@ class AxisEstimator:
         self.reset()
 
     def reset(self) -> None:
-        # candidate a, its mirror b, sigma, line of sight (rad)
-        self._observations: deque[tuple[float, float, float, float]] = deque(maxlen=self.config.memory)
+        # candidate a, its mirror b, sigma, line of sight (rad), range (m)
+        self._observations: deque[tuple[float, float, float, float, float]] = deque(maxlen=self.config.memory)
         self._line_of_sight_rad: float | None = None  # direction from the vehicle to the dock
         self._chosen: float | None = None  # the last estimate: kept over its mirror until the mirror is clearly better
         self._estimate: AxisEstimate | None = None
@@ -68,11 +83,15 @@ class AxisEstimator:
         sight = -dock / distance  # from the dock towards the camera
         if float(normal @ sight) < math.cos(math.radians(c.max_tilt_deg)):
             return
+        sigma = math.radians(c.noise_deg_at_zero + c.noise_deg_per_m2 * distance**2)
+        if target.axis_sigma_rad is not None:
+            sigma = max(sigma, c.reported_sigma_scale * target.axis_sigma_rad)
+        if not sigma <= math.radians(c.max_sigma_deg):  # also NaN
+            return
         mirror = 2.0 * float(normal @ sight) * sight - normal
         self._line_of_sight_rad = math.atan2(dock[1], dock[0])
-        sigma = math.radians(c.noise_deg_at_zero + c.noise_deg_per_m2 * distance**2)
         self._observations.append((math.atan2(-normal[1], -normal[0]), math.atan2(-mirror[1], -mirror[0]), sigma,
-                                   self._line_of_sight_rad))
+                                   self._line_of_sight_rad, distance))
         self._estimate = self._estimated()
 
     def estimate(self) -> AxisEstimate | None:
@@ -81,9 +100,11 @@ class AxisEstimator:
 
     def _estimated(self) -> AxisEstimate | None:
         c = self.config
-        if len(self._observations) < c.min_observations or self._line_of_sight_rad is None:
-            return None
         obs = np.array(self._observations)
+        if len(obs):
+            obs = obs[obs[:, 4] <= c.superseded_ratio * obs[-1, 4]]
+        if len(obs) < c.min_observations or self._line_of_sight_rad is None:
+            return self._estimate  # too few views from about here yet: the last estimate stands
         recent = obs[-c.candidates:]
         trial = np.concatenate([recent[:, 0], recent[:, 1]])
         costs = self._costs(obs, trial)

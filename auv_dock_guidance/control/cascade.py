@@ -34,6 +34,7 @@ class Target:
     offset_x_m: float  # right
     offset_y_m: float  # down
     axis_optical: tuple[float, float, float] | None = None  # the dock's axis (ring normal, towards the camera)
+    axis_sigma_rad: float | None = None  # the detector's standard deviation of that axis's tilt; None: not reported
 
     @property
     def bearing_yaw_rad(self) -> float:

@@ -269,10 +269,20 @@ def _axis(observation: RingObservation, position_cov: np.ndarray,
     else:
         return None, UNKNOWN_VARIANCE, position_cov
     axis = axis / np.linalg.norm(axis)
-    line_of_sight = -np.asarray(observation.center_m, dtype=float)
-    tilt = math.acos(float(np.clip(axis @ line_of_sight / np.linalg.norm(line_of_sight), -1.0, 1.0)))
-    tilt_sigma = ratio_sigma / max(math.sin(tilt), math.sqrt(ratio_sigma))
-    return axis, min(UNKNOWN_VARIANCE, tilt_sigma**2 + spread_variance), position_cov
+    return axis, min(UNKNOWN_VARIANCE, tilt_sigma_rad(observation, axis) ** 2 + spread_variance), position_cov
+
+
+def tilt_sigma_rad(observation: RingObservation, axis: np.ndarray | tuple[float, float, float]) -> float:
+    """Standard deviation of the tilt of ``axis`` (either of the ring's two poses) off the line of
+    sight, from the outline's scatter: cos(tilt) = b / a, so near head-on an error in b / a moves
+    the tilt by its square root (inf when the fit reports no error)."""
+    center = np.asarray(observation.center_m, dtype=float)
+    ratio_sigma = _ratio_sigma(observation, observation.marker_radius_m / float(center[2]))
+    if not math.isfinite(ratio_sigma):
+        return math.inf
+    axis = np.asarray(axis, dtype=float)
+    cosine = float(np.clip(-(axis @ center) / (np.linalg.norm(axis) * np.linalg.norm(center)), -1.0, 1.0))
+    return ratio_sigma / max(math.sqrt(1.0 - cosine * cosine), math.sqrt(ratio_sigma))
 
 
 def _dock_frame(axis: np.ndarray) -> np.ndarray:

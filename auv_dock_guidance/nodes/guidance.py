@@ -42,6 +42,7 @@ from auv_dock_guidance.control.mixer import MixerConfig
 from auv_dock_guidance.control.pid import PidGains
 from auv_dock_guidance.control.tracker import TrackerConfig
 from auv_dock_guidance.errors import DockGuidanceError
+from auv_dock_guidance.geometry.uncertainty import UNKNOWN_VARIANCE
 from auv_dock_guidance.nodes.common import (
     MOUNTING_PARAMS,
     TRANSITION_QOS,
@@ -210,12 +211,12 @@ class GuidanceNode(Node):
         self._pose_seen_s = self.get_clock().now().nanoseconds * 1e-9
         p = msg.pose.pose.position
         forward, right, down = self.mounting.target_about_vehicle(np.array([p.x, p.y, p.z]))
-        normal = dock_axis_optical(msg)
+        normal, sigma = dock_axis_optical(msg)
         axis = None
         if normal is not None:  # about the vehicle as the position is: optical-like (right, down, forward)
             base = self.mounting.base_from_optical() @ normal
             axis = (float(-base[1]), float(-base[2]), float(base[0]))
-        self._step(Target(stamp_seconds(msg.header.stamp), forward, right, down, axis))
+        self._step(Target(stamp_seconds(msg.header.stamp), forward, right, down, axis, sigma))
 
     def _on_timer(self) -> None:
         """A control tick; the first after a hiccup of this process (three periods without a tick) is
@@ -285,22 +286,24 @@ class GuidanceNode(Node):
 
 
 POSE_PREFERRED_S = 1.0  # dock/target is ignored this long after a dock/pose
-AXIS_TILT_VARIANCE_LIMIT = math.radians(10.0) ** 2  # an axis less certain than this is not lined up with
 
 
-def dock_axis_optical(msg: PoseWithCovarianceStamped) -> np.ndarray | None:
-    """The dock's axis (out of the entrance, towards the camera) in the optical frame, if dock/pose resolved it."""
+def dock_axis_optical(msg: PoseWithCovarianceStamped) -> tuple[np.ndarray | None, float | None]:
+    """The dock's axis (out of the entrance, towards the camera) in the optical frame and the standard
+    deviation of its tilt, if dock/pose observed it (guidance weighs, and leaves out, uncertain ones)."""
     q = msg.pose.pose.orientation
     x, y, z, w = q.x, q.y, q.z, q.w
     axis = np.array([1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + z * w), 2.0 * (x * z - y * w)])
     if not np.all(np.isfinite(axis)) or np.linalg.norm(axis) < 0.5:
-        return None
+        return None, None
     axis /= np.linalg.norm(axis)
     across = np.cross(axis, [0.0, 0.0, 1.0] if abs(axis[2]) < 0.9 else [1.0, 0.0, 0.0])
     across /= np.linalg.norm(across)
     rotation = np.asarray(msg.pose.covariance, dtype=float).reshape(6, 6)[3:, 3:]
     tilt_variance = float(across @ rotation @ across)
-    return axis if math.isfinite(tilt_variance) and tilt_variance <= AXIS_TILT_VARIANCE_LIMIT else None
+    if not (math.isfinite(tilt_variance) and tilt_variance < UNKNOWN_VARIANCE):
+        return None, None
+    return axis, math.sqrt(max(tilt_variance, 0.0))
 
 
 def main(args: list[str] | None = None) -> int:

@@ -283,6 +283,35 @@ def test_the_sidestep_keeps_the_dock_in_view_and_gains_on_the_line():
     assert math.atan2(after[1], -after[0]) < off_axis_now  # seen from the dock, closer to the axis
 
 
+def _sweep(start, end, count, t0, axis_yaw, sigma_rad):
+    """Sightings along a straight path, nose on the dock, each reporting its tilt's sigma."""
+    for i in range(count):
+        p = np.asarray(start) + (np.asarray(end) - np.asarray(start)) * i / (count - 1)
+        heading = math.atan2(-p[1], -p[0])
+        target = replace(sighting(p, heading, t0 + 0.1 * i, axis_yaw(heading)), axis_sigma_rad=sigma_rad)
+        yield target, Attitude(target.stamp_s, 0, 0, heading)
+
+
+def test_close_views_outweigh_many_far_ones_that_the_halo_made_look_head_on():
+    """Far out the halo rounds a tilted ring: 80 views from 12-7 m, 14 deg off the axis, each
+    looking head-on (uncertain as reported), then 20 close views, 5-2.5 m out from either side of
+    the axis, that see the tilt."""
+    axis = AxisEstimator()
+    for target, attitude in _sweep((-12.0, 3.0), (-7.0, 1.75), 80, 0.0, lambda heading: heading, 0.08):
+        axis.observe(target, target.axis_optical, attitude)
+    for target, attitude in _sweep((-5.0, 1.2), (-2.5, -0.4), 20, 10.0, lambda heading: 0.0, 0.01):
+        axis.observe(target, target.axis_optical, attitude)
+    assert abs(axis.estimate().yaw_rad) < math.radians(2)
+
+
+def test_views_less_certain_than_the_limit_are_left_out():
+    axis = AxisEstimator()
+    limit = math.radians(axis.config.max_sigma_deg) / axis.config.reported_sigma_scale
+    for target, attitude in _sweep((-9.0, 3.0), (-7.0, 1.0), 30, 0.0, lambda heading: 0.3, 1.01 * limit):
+        axis.observe(target, target.axis_optical, attitude)
+    assert axis.estimate() is None
+
+
 def test_an_axis_seen_from_one_viewpoint_is_not_known_however_consistent():
     axis = AxisEstimator()
     for i in range(60):
