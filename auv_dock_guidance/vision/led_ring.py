@@ -255,6 +255,7 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
     sizes = (found >= 0).sum(axis=1)
     seen: set[tuple[int, ...]] = set()
     rings = []
+    refitter = _Refitter(points, blobs, free, count, in_view)
     for h in np.argsort(-sizes, kind="stable"):
         if sizes[h] < minimum or len(seen) >= REFITS:
             break
@@ -263,8 +264,8 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
         if members in seen:
             continue
         seen.add(members)
-        ring = _refit(points, blobs, free, (found[h, slots], slots), count, in_view)
-        if ring is None or ring.occupancy < MIN_OCCUPANCY:
+        ring = refitter.refit(found[h, slots], slots)
+        if ring is None:
             continue
         coloured = ring.glow_saturation >= COLOURED_GLOW_SATURATION  # False when not told (NaN)
         if len(ring.members) >= (minimum if count_known or coloured else MIN_LEDS_UNKNOWN_COUNT) \
@@ -330,57 +331,89 @@ def _match_positions(points: np.ndarray, light: np.ndarray, free: np.ndarray, pr
     return results
 
 
-def _refit(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, match: tuple[np.ndarray, np.ndarray],
-           count: int, in_view: InView | None) -> LedRing | None:
-    """The ring through the matched lights at their slots, re-matched as the model tightens
-    (`_ring_fit`; from 5 LEDs the ring's perspective image, so the final residual is the
-    centroids' scatter, not the model's), keeping only lights alike in size and brightness.
-    None when the lights stray from the model by more than its tolerance."""
-    lights, slots = match
-    expected = 0
-    light = np.array([b.peak for b in blobs])
-    model: np.ndarray | None = None
-    for rematch in (True, True, False):
-        lights, slots = _alike_members(blobs, lights, slots)
-        if len(lights) < 3:
+class _Refitter:
+    """Refits of one count's hypotheses among the same free lights (`refit`).
+
+    Refits of different hypotheses often converge on the same lights, and a refit that
+    has settled fits the same lights again: the model and the lights it matches are kept
+    per (lights, slots), so each is fitted once.
+    """
+
+    def __init__(self, points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, count: int,
+                 in_view: InView | None) -> None:
+        self.points, self.blobs, self.free, self.count, self.in_view = points, blobs, free, count, in_view
+        self.peak = np.array([b.peak for b in blobs])
+        self.radius = np.array([b.radius_px for b in blobs])
+        self._fits: dict[tuple[bytes, bytes], tuple[np.ndarray, np.ndarray | None] | None] = {}
+        self._matches: dict[tuple[bytes, bytes], tuple[np.ndarray, np.ndarray, int]] = {}
+
+    def refit(self, lights: np.ndarray, slots: np.ndarray) -> LedRing | None:
+        """The ring through the matched lights at their slots, re-matched as the model tightens
+        (`_ring_fit`; from 5 LEDs the ring's perspective image, so the final residual is the
+        centroids' scatter, not the model's), keeping only lights alike in size and brightness.
+        None when the lights stray from the model by more than its tolerance, or when fewer
+        than MIN_OCCUPANCY of the LEDs expected in view are left."""
+        expected = 0
+        fitted: tuple[np.ndarray, np.ndarray | None] | None = None
+        for rematch in (True, True, False):
+            lights, slots = self._alike(lights, slots)
+            if len(lights) < 3:
+                return None
+            key = (lights.tobytes(), slots.tobytes())
+            fitted = self._fit(key, lights, slots)
+            if fitted is None:
+                return None
+            if rematch:
+                if key not in self._matches:
+                    self._matches[key] = _match_positions(self.points, self.peak, self.free, fitted[0][None],
+                                                          FIT_TOLERANCE, self.in_view)[0]
+                lights, slots, expected = self._matches[key]
+        if len(lights) / max(1, expected) < MIN_OCCUPANCY:  # the last round only drops lights
             return None
-        model = _slot_model(points[lights], slots, count)
-        if model is None:
+        assert fitted is not None  # the last round fitted it
+        model, homography = fitted
+        points = self.points[lights]
+        spacing = float(np.mean(np.linalg.norm(np.roll(model, -1, axis=0) - model, axis=1)))
+        if spacing > MAX_SPACING_SIZES * _median(self.radius[lights]):
             return None
-        if rematch:
-            lights, slots, expected = _match_positions(points, light, free, model[None], FIT_TOLERANCE, in_view)[0]
-    assert model is not None  # the last round fitted it
-    spacing = float(np.mean(np.linalg.norm(np.roll(model, -1, axis=0) - model, axis=1)))
-    if spacing > MAX_SPACING_SIZES * float(np.median([blobs[i].radius_px for i in lights])):
-        return None
-    residual = float(np.sqrt(np.mean(np.sum((points[lights] - model[slots]) ** 2, axis=1)))) / max(spacing, 1e-9)
-    (center, a, b), tolerance = _ring_fit(points[lights], slots, count)
-    if residual > tolerance:
-        return None
-    homography = _homography(points[lights], slots, count) if len(lights) >= 5 else None
-    if homography is not None:
-        projected = homography @ np.array([0.0, 0.0, 1.0])
-        center = projected[:2] / projected[2]
-    return LedRing(
-        members=tuple(int(x) for x in lights), slots=tuple(int(s) for s in slots), count=count,
-        center=(float(center[0]), float(center[1])), axis_a=(float(a[0]), float(a[1])),
-        axis_b=(float(b[0]), float(b[1])), expected=expected, residual=residual,
-        light=float(sum(blobs[i].peak for i in lights)),
-        glow_saturation=_least_told(np.array([glow_saturation(blobs[i].glow_bgr) for i in lights])),
-    )
+        residual = float(np.sqrt(np.mean(np.sum((points - model[slots]) ** 2, axis=1)))) / max(spacing, 1e-9)
+        (center, a, b), tolerance = _ring_fit(points, slots, self.count)
+        if residual > tolerance:
+            return None
+        if homography is not None:  # from 5 LEDs: the centre where the perspective image puts it
+            projected = homography @ np.array([0.0, 0.0, 1.0])
+            center = projected[:2] / projected[2]
+        blobs = self.blobs
+        return LedRing(
+            members=tuple(int(x) for x in lights), slots=tuple(int(s) for s in slots), count=self.count,
+            center=(float(center[0]), float(center[1])), axis_a=(float(a[0]), float(a[1])),
+            axis_b=(float(b[0]), float(b[1])), expected=expected, residual=residual,
+            light=float(sum(blobs[i].peak for i in lights)),
+            glow_saturation=_least_told(np.array([glow_saturation(blobs[i].glow_bgr) for i in lights])),
+        )
+
+    def _fit(self, key: tuple[bytes, bytes], lights: np.ndarray,
+             slots: np.ndarray) -> tuple[np.ndarray, np.ndarray | None] | None:
+        if key not in self._fits:
+            self._fits[key] = _slot_model(self.points[lights], slots, self.count)
+        return self._fits[key]
+
+    def _alike(self, lights: np.ndarray, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The lights within ALIKE of the members' median size and brightness."""
+        if len(lights) == 0:
+            return lights, slots
+        keep = np.ones(len(lights), bool)
+        for values in (self.radius[lights], self.peak[lights]):
+            median = _median(values)
+            keep &= (values <= ALIKE * median) & (values >= median / ALIKE)
+        return lights[keep], slots[keep]
 
 
-def _alike_members(blobs: list[LedBlob], lights: np.ndarray, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The lights within ALIKE of the members' median size and brightness."""
-    if len(lights) == 0:
-        return lights, slots
-    radius = np.array([blobs[i].radius_px for i in lights])
-    peak = np.array([blobs[i].peak for i in lights])
-    keep = np.ones(len(lights), bool)
-    for values in (radius, peak):
-        median = float(np.median(values))
-        keep &= (values <= ALIKE * median) & (values >= median / ALIKE)
-    return lights[keep], slots[keep]
+def _median(values: np.ndarray) -> float:
+    """np.median of a short array of finite values, the same number without its overhead."""
+    ordered = np.sort(values)
+    mid = len(ordered) // 2
+    return float(ordered[mid]) if len(ordered) % 2 else float((ordered[mid - 1] + ordered[mid]) / 2)
 
 
 def _unit_circle(slots: np.ndarray, count: int) -> np.ndarray:
@@ -426,8 +459,9 @@ def _homography(xy: np.ndarray, slots: np.ndarray, count: int) -> np.ndarray | N
     return None if homography is None or not np.all(np.isfinite(homography)) else homography
 
 
-def _slot_model(xy: np.ndarray, slots: np.ndarray, count: int) -> np.ndarray | None:
-    """Where the model through these lights puts all ``count`` slots (count, 2)."""
+def _slot_model(xy: np.ndarray, slots: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray | None] | None:
+    """Where the model through these lights puts all ``count`` slots (count, 2), and its
+    homography when it is the ring's perspective image (from 5 lights)."""
     if len(xy) >= 5:
         homography = _homography(xy, slots, count)
         if homography is None:
@@ -436,6 +470,6 @@ def _slot_model(xy: np.ndarray, slots: np.ndarray, count: int) -> np.ndarray | N
         image = circle @ homography.T
         if np.any(np.abs(image[:, 2]) < 1e-9) or np.ptp(np.sign(image[:, 2])) > 0:
             return None  # the ring would cross the horizon: not a ring seen from in front
-        return image[:, :2] / image[:, 2:]
+        return image[:, :2] / image[:, 2:], homography
     center, a, b = ring_model(xy, slots, count)
-    return _positions(center, a, b, count)
+    return _positions(center, a, b, count), None
