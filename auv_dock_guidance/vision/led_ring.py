@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import lru_cache
 
 import cv2
 import numpy as np
@@ -235,16 +236,22 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
         <= MAX_CIRCLE_RESIDUAL
     weight, found = weight[on_arc], found[on_arc]
     hypotheses = len(found)
+    if not hypotheses:
+        return []
+    free_points = points[index]
     for distance in range(2, count // 2 + 1):
-        affine = np.linalg.solve(np.einsum("hs,si,sj->hij", weight, design, design) + 1e-9 * np.eye(3),
-                                 np.einsum("hs,si,hsj->hij", weight, design, points[np.maximum(found, 0)]))
-        circles = _fit_circles(weight, points[np.maximum(found, 0)], circle)
-        models = (weight.sum(axis=1) < 4, circles, affine)
+        few = weight.sum(axis=1) < 4
+        by_slot = points[np.maximum(found, 0)]
+        affine = None if few.all() else np.linalg.solve(
+            np.einsum("hs,si,sj->hij", weight, design, design) + 1e-9 * np.eye(3),
+            np.einsum("hs,si,hsj->hij", weight, design, by_slot))
+        circles = _fit_circles(weight, by_slot, circle) if few.any() else None
+        models = (few, circles, affine)
         sides = ((distance % count, distance - 1), ((-distance) % count, (1 - distance) % count))
         for slot, previous in sides[: 1 if 2 * distance == count else 2]:
             predicted = _predict(slot, models, circle, design)  # (H, 2)
-            spacing = np.linalg.norm(predicted - _predict(previous, models, circle, design), axis=1)
-            gap = np.linalg.norm(predicted[:, None, :] - points[index][None, :, :], axis=2)  # (H, F)
+            spacing = _norm(predicted - _predict(previous, models, circle, design))
+            gap = _norm(predicted[:, None, :] - free_points[None, :, :])  # (H, F)
             taken = (found[:, :, None] == index[None, None, :]).any(axis=1)
             within = ~taken & (gap <= MATCH_TOLERANCE * spacing[:, None])
             brightest = np.argmax(np.where(within, light[None, :], -1.0), axis=1)
@@ -274,24 +281,56 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
     return rings
 
 
-def _predict(slot: int, models: tuple[np.ndarray, np.ndarray, np.ndarray], circle: np.ndarray,
+def _predict(slot: int, models: tuple[np.ndarray, np.ndarray | None, np.ndarray | None], circle: np.ndarray,
              design: np.ndarray) -> np.ndarray:
-    """Where each hypothesis puts a slot (H, 2): its circle while it has few LEDs, else its affine ring."""
+    """Where each hypothesis puts a slot (H, 2): its circle while it has few LEDs, else its affine ring
+    (``models``: which have few, and the circles and affine rings, each None where no hypothesis needs it)."""
     few, circles, affine = models
-    return np.where(few[:, None], np.einsum("ri,hi->hr", circle[slot], circles), design[slot] @ affine)
+    if circles is None:
+        assert affine is not None
+        return design[slot] @ affine
+    on_circle = np.einsum("ri,hi->hr", circle[slot], circles)
+    return on_circle if affine is None else np.where(few[:, None], on_circle, design[slot] @ affine)
 
 
+@lru_cache(maxsize=64)
 def _affine_design(count: int) -> np.ndarray:
     """Rows (1, cos, sin) of each slot: the affine ring c + a cos + b sin is linear in c, a, b."""
-    return np.column_stack([np.ones(count), _unit_circle(np.arange(count), count)])
+    return _read_only(np.column_stack([np.ones(count), _unit_circle(np.arange(count), count)]))
 
 
+@lru_cache(maxsize=64)
+def _homogeneous_circle(count: int) -> np.ndarray:
+    """Rows (cos, sin, 1) of each slot: the unit circle's slots on the plane a homography maps."""
+    return _read_only(np.column_stack([_unit_circle(np.arange(count), count), np.ones(count)]))
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    """A cached array nobody may change."""
+    array.setflags(write=False)
+    return array
+
+
+def _norm(vectors: np.ndarray) -> np.ndarray:
+    """Lengths of 2-D vectors along the last axis: np.linalg.norm(axis=-1) to the bit, without its overhead."""
+    return np.sqrt(np.add.reduce(vectors * vectors, axis=-1))
+
+
+def _next(array: np.ndarray, axis: int, step: int = 1) -> np.ndarray:
+    """np.roll(array, -step, axis) for arrays along ``axis``: each slot's neighbour ``step`` further on."""
+    later, first = [slice(None)] * array.ndim, [slice(None)] * array.ndim
+    later[axis], first[axis] = slice(step, None), slice(None, step)
+    return np.concatenate([array[tuple(later)], array[tuple(first)]], axis=axis)
+
+
+@lru_cache(maxsize=64)
 def _circle_design(count: int) -> np.ndarray:
     """(count, 2, 4): the x and y rows of each slot for a circle seen face on, linear in its
     centre and (A, B) = radius * (cos, sin) of its turn: x = cx + A cos - B sin, y = cy + A sin + B cos."""
     cos, sin = _unit_circle(np.arange(count), count).T
     ones, zeros = np.ones(count), np.zeros(count)
-    return np.stack([np.column_stack([ones, zeros, cos, -sin]), np.column_stack([zeros, ones, sin, cos])], axis=1)
+    return _read_only(np.stack([np.column_stack([ones, zeros, cos, -sin]), np.column_stack([zeros, ones, sin, cos])],
+                               axis=1))
 
 
 def _fit_circles(weight: np.ndarray, points: np.ndarray, circle: np.ndarray) -> np.ndarray:
@@ -314,10 +353,10 @@ def _match_positions(points: np.ndarray, light: np.ndarray, free: np.ndarray, pr
                      tolerance: float, in_view: InView | None) -> list[tuple[np.ndarray, np.ndarray, int]]:
     """Per hypothesis (predicted slot positions (H, count, 2)): the brightest light within
     ``tolerance`` of the local spacing of each slot, their slots, and the slots expected in view."""
-    spacing = np.linalg.norm(np.roll(predicted, -1, axis=1) - predicted, axis=2)
-    local = np.minimum(spacing, np.roll(spacing, 1, axis=1))  # (H, count)
+    spacing = _norm(_next(predicted, 1) - predicted)
+    local = np.minimum(spacing, _next(spacing, 1, spacing.shape[1] - 1))  # (H, count): the smaller of both sides
     index = np.flatnonzero(free)
-    gap = np.linalg.norm(predicted[:, :, None, :] - points[index][None, None, :, :], axis=3)  # (H, count, F)
+    gap = _norm(predicted[:, :, None, :] - points[index][None, None, :, :])  # (H, count, F)
     within = gap <= tolerance * local[:, :, None]
     nearest = np.argmax(np.where(within, light[index][None, None, :], -1.0), axis=2)
     found = np.take_along_axis(within, nearest[:, :, None], axis=2)[:, :, 0]
@@ -373,7 +412,7 @@ class _Refitter:
         assert fitted is not None  # the last round fitted it
         model, homography = fitted
         points = self.points[lights]
-        spacing = float(np.mean(np.linalg.norm(np.roll(model, -1, axis=0) - model, axis=1)))
+        spacing = float(np.mean(_norm(_next(model, 0) - model)))
         if spacing > MAX_SPACING_SIZES * _median(self.radius[lights]):
             return None
         residual = float(np.sqrt(np.mean(np.sum((points - model[slots]) ** 2, axis=1)))) / max(spacing, 1e-9)
@@ -466,8 +505,7 @@ def _slot_model(xy: np.ndarray, slots: np.ndarray, count: int) -> tuple[np.ndarr
         homography = _homography(xy, slots, count)
         if homography is None:
             return None
-        circle = np.column_stack([_unit_circle(np.arange(count), count), np.ones(count)])
-        image = circle @ homography.T
+        image = _homogeneous_circle(count) @ homography.T
         if np.any(np.abs(image[:, 2]) < 1e-9) or np.ptp(np.sign(image[:, 2])) > 0:
             return None  # the ring would cross the horizon: not a ring seen from in front
         return image[:, :2] / image[:, 2:], homography
