@@ -239,14 +239,18 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
     if not hypotheses:
         return []
     free_points = points[index]
+    # Each hypothesis's circle and affine ring, refitted only when it took a light (a row's fit
+    # does not depend on the other rows): most steps most hypotheses find nothing.
+    circles, affine = np.zeros((hypotheses, 4)), np.zeros((hypotheses, 3, 2))
+    stale = np.ones(hypotheses, bool)
     for distance in range(2, count // 2 + 1):
         few = weight.sum(axis=1) < 4
-        by_slot = points[np.maximum(found, 0)]
-        affine = None if few.all() else np.linalg.solve(
-            np.einsum("hs,si,sj->hij", weight, design, design) + 1e-9 * np.eye(3),
-            np.einsum("hs,si,hsj->hij", weight, design, by_slot))
-        circles = _fit_circles(weight, by_slot, circle) if few.any() else None
-        models = (few, circles, affine)
+        if (rows := stale & few).any():
+            circles[rows] = _fit_circles(weight[rows], points[np.maximum(found[rows], 0)], circle)
+        if (rows := stale & ~few).any():
+            affine[rows] = _fit_affine(weight[rows], points[np.maximum(found[rows], 0)], design)
+        stale[:] = False
+        models = (few, circles if few.any() else None, None if few.all() else affine)
         sides = ((distance % count, distance - 1), ((-distance) % count, (1 - distance) % count))
         for slot, previous in sides[: 1 if 2 * distance == count else 2]:
             predicted = _predict(slot, models, circle, design)  # (H, 2)
@@ -258,6 +262,7 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
             hit = within[np.arange(hypotheses), brightest] & (found[:, slot] < 0)
             found[hit, slot] = index[brightest[hit]]
             weight[hit, slot] = 1.0
+            stale |= hit
     minimum = MIN_LEDS_KNOWN_COUNT if count_known else MIN_COLOURED_LEDS_UNKNOWN_COUNT
     sizes = (found >= 0).sum(axis=1)
     seen: set[tuple[int, ...]] = set()
@@ -331,6 +336,12 @@ def _circle_design(count: int) -> np.ndarray:
     ones, zeros = np.ones(count), np.zeros(count)
     return _read_only(np.stack([np.column_stack([ones, zeros, cos, -sin]), np.column_stack([zeros, ones, sin, cos])],
                                axis=1))
+
+
+def _fit_affine(weight: np.ndarray, points: np.ndarray, design: np.ndarray) -> np.ndarray:
+    """Least-squares affine rings (H, 3, 2) through each hypothesis's lights (``points`` (H, count, 2) by slot)."""
+    return np.linalg.solve(np.einsum("hs,si,sj->hij", weight, design, design) + 1e-9 * np.eye(3),
+                           np.einsum("hs,si,hsj->hij", weight, design, points))
 
 
 def _fit_circles(weight: np.ndarray, points: np.ndarray, circle: np.ndarray) -> np.ndarray:
