@@ -266,8 +266,7 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
     minimum = MIN_LEDS_KNOWN_COUNT if count_known else MIN_COLOURED_LEDS_UNKNOWN_COUNT
     sizes = (found >= 0).sum(axis=1)
     seen: set[tuple[int, ...]] = set()
-    rings = []
-    refitter = _Refitter(points, blobs, free, count, in_view)
+    starts = []
     for h in np.argsort(-sizes, kind="stable"):
         if sizes[h] < minimum or len(seen) >= REFITS:
             break
@@ -276,7 +275,9 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
         if members in seen:
             continue
         seen.add(members)
-        ring = refitter.refit(found[h, slots], slots)
+        starts.append((found[h, slots], slots))
+    rings = []
+    for ring in _Refitter(points, blobs, free, count, in_view).refit(starts):
         if ring is None:
             continue
         coloured = ring.glow_saturation >= COLOURED_GLOW_SATURATION  # False when not told (NaN)
@@ -386,7 +387,8 @@ class _Refitter:
 
     Refits of different hypotheses often converge on the same lights, and a refit that
     has settled fits the same lights again: the model and the lights it matches are kept
-    per (lights, slots), so each is fitted once.
+    per (lights, slots), so each is fitted once; the matches of a round are made for all
+    hypotheses at once.
     """
 
     def __init__(self, points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, count: int,
@@ -397,30 +399,48 @@ class _Refitter:
         self._fits: dict[tuple[bytes, bytes], tuple[np.ndarray, np.ndarray | None] | None] = {}
         self._matches: dict[tuple[bytes, bytes], tuple[np.ndarray, np.ndarray, int]] = {}
 
-    def refit(self, lights: np.ndarray, slots: np.ndarray) -> LedRing | None:
-        """The ring through the matched lights at their slots, re-matched as the model tightens
-        (`_ring_fit`; from 5 LEDs the ring's perspective image, so the final residual is the
-        centroids' scatter, not the model's), keeping only lights alike in size and brightness.
-        None when the lights stray from the model by more than its tolerance, or when fewer
-        than MIN_OCCUPANCY of the LEDs expected in view are left."""
-        expected = 0
-        fitted: tuple[np.ndarray, np.ndarray | None] | None = None
+    def refit(self, starts: list[tuple[np.ndarray, np.ndarray]]) -> list[LedRing | None]:
+        """Per start (lights, slots): the ring through the matched lights at their slots,
+        re-matched as the model tightens (`_ring_fit`; from 5 LEDs the ring's perspective
+        image, so the final residual is the centroids' scatter, not the model's), keeping
+        only lights alike in size and brightness. None when the lights stray from the model
+        by more than its tolerance, or when fewer than MIN_OCCUPANCY of the LEDs expected in
+        view are left."""
+        current: list[tuple[np.ndarray, np.ndarray] | None] = list(starts)
+        expected = [0] * len(starts)
+        fitted: list[tuple[np.ndarray, np.ndarray | None] | None] = [None] * len(starts)
         for rematch in (True, True, False):
-            lights, slots = self._alike(lights, slots)
-            if len(lights) < 3:
-                return None
-            key = (lights.tobytes(), slots.tobytes())
-            fitted = self._fit(key, lights, slots)
-            if fitted is None:
-                return None
+            keys: list[tuple[bytes, bytes] | None] = [None] * len(starts)
+            for i, start in enumerate(current):
+                if start is None:
+                    continue
+                lights, slots = self._alike(*start)
+                key = (lights.tobytes(), slots.tobytes())
+                fitted[i] = self._fit(key, lights, slots) if len(lights) >= 3 else None
+                current[i], keys[i] = ((lights, slots), key) if fitted[i] is not None else (None, None)
             if rematch:
-                if key not in self._matches:
-                    self._matches[key] = _match_positions(self.points, self.peak, self.free, fitted[0][None],
-                                                          FIT_TOLERANCE, self.in_view)[0]
-                lights, slots, expected = self._matches[key]
+                self._match([(told, fit[0]) for told, fit in zip(keys, fitted, strict=True)
+                             if told is not None and fit is not None and told not in self._matches])
+                for i, told in enumerate(keys):
+                    if told is not None:
+                        lights, slots, expected[i] = self._matches[told]
+                        current[i] = (lights, slots)
+        return [None if start is None or fit is None else self._ring(*start, expected[i], fit)
+                for i, (start, fit) in enumerate(zip(current, fitted, strict=True))]
+
+    def _match(self, models: list[tuple[tuple[bytes, bytes], np.ndarray]]) -> None:
+        """The lights at the slots of each model not matched yet, all in one batch."""
+        unique = dict(models)
+        if unique:
+            matched = _match_positions(self.points, self.peak, self.free, np.stack(list(unique.values())),
+                                       FIT_TOLERANCE, self.in_view)
+            self._matches.update(zip(unique, matched, strict=True))
+
+    def _ring(self, lights: np.ndarray, slots: np.ndarray, expected: int,
+              fitted: tuple[np.ndarray, np.ndarray | None]) -> LedRing | None:
+        """The ring of a finished refit, or None (see `refit`)."""
         if len(lights) / max(1, expected) < MIN_OCCUPANCY:  # the last round only drops lights
             return None
-        assert fitted is not None  # the last round fitted it
         model, homography = fitted
         points = self.points[lights]
         spacing = float(np.mean(_norm(_next(model, 0) - model)))
