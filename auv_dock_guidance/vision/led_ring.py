@@ -243,6 +243,7 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
     # does not depend on the other rows): most steps most hypotheses find nothing.
     circles, affine = np.zeros((hypotheses, 4)), np.zeros((hypotheses, 3, 2))
     stale = np.ones(hypotheses, bool)
+    taken = (found[:, :, None] == index[None, None, :]).any(axis=1)  # (H, F): lights a hypothesis holds
     for distance in range(2, count // 2 + 1):
         few = weight.sum(axis=1) < 4
         if (rows := stale & few).any():
@@ -256,12 +257,12 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
             predicted = _predict(slot, models, circle, design)  # (H, 2)
             spacing = _norm(predicted - _predict(previous, models, circle, design))
             gap = _norm(predicted[:, None, :] - free_points[None, :, :])  # (H, F)
-            taken = (found[:, :, None] == index[None, None, :]).any(axis=1)
             within = ~taken & (gap <= MATCH_TOLERANCE * spacing[:, None])
             brightest = np.argmax(np.where(within, light[None, :], -1.0), axis=1)
             hit = within[np.arange(hypotheses), brightest] & (found[:, slot] < 0)
             found[hit, slot] = index[brightest[hit]]
             weight[hit, slot] = 1.0
+            taken[hit, brightest[hit]] = True
             stale |= hit
     minimum = MIN_LEDS_KNOWN_COUNT if count_known else MIN_COLOURED_LEDS_UNKNOWN_COUNT
     sizes = (found >= 0).sum(axis=1)
