@@ -243,27 +243,33 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
     # does not depend on the other rows): most steps most hypotheses find nothing.
     circles, affine = np.zeros((hypotheses, 4)), np.zeros((hypotheses, 3, 2))
     stale = np.ones(hypotheses, bool)
-    taken = (found[:, :, None] == index[None, None, :]).any(axis=1)  # (H, F): lights a hypothesis holds
+    sizes = np.count_nonzero(weight, axis=1)  # lights each hypothesis holds...
+    untaken = ~(found[:, :, None] == index[None, None, :]).any(axis=1)  # ...and (H, F) those it does not
+    every = np.arange(hypotheses)
     for distance in range(2, count // 2 + 1):
-        few = weight.sum(axis=1) < 4
-        if (rows := stale & few).any():
-            circles[rows] = _fit_circles(weight[rows], points[np.maximum(found[rows], 0)], circle)
-        if (rows := stale & ~few).any():
-            affine[rows] = _fit_affine(weight[rows], points[np.maximum(found[rows], 0)], design)
-        stale[:] = False
+        few = sizes < 4
+        if stale.any():
+            if (rows := stale & few).any():
+                circles[rows] = _fit_circles(weight[rows], points[np.maximum(found[rows], 0)], circle)
+            if (rows := stale & ~few).any():
+                affine[rows] = _fit_affine(weight[rows], points[np.maximum(found[rows], 0)], design)
+            stale[:] = False
         models = (few, circles if few.any() else None, None if few.all() else affine)
         sides = ((distance % count, distance - 1), ((-distance) % count, (1 - distance) % count))
         for slot, previous in sides[: 1 if 2 * distance == count else 2]:
             predicted = _predict(slot, models, circle, design)  # (H, 2)
             spacing = _norm(predicted - _predict(previous, models, circle, design))
             gap = _norm(predicted[:, None, :] - free_points[None, :, :])  # (H, F)
-            within = ~taken & (gap <= MATCH_TOLERANCE * spacing[:, None])
-            brightest = np.argmax(np.where(within, light[None, :], -1.0), axis=1)
-            hit = within[np.arange(hypotheses), brightest] & (found[:, slot] < 0)
-            found[hit, slot] = index[brightest[hit]]
-            weight[hit, slot] = 1.0
-            taken[hit, brightest[hit]] = True
-            stale |= hit
+            within = untaken & (gap <= MATCH_TOLERANCE * spacing[:, None])
+            brightest = np.argmax(np.where(within, light, -1.0), axis=1)
+            hit = within[every, brightest] & (found[:, slot] < 0)
+            if hit.any():
+                took = brightest[hit]
+                found[hit, slot] = index[took]
+                weight[hit, slot] = 1.0
+                untaken[hit, took] = False
+                stale |= hit
+                sizes += hit
     minimum = MIN_LEDS_KNOWN_COUNT if count_known else MIN_COLOURED_LEDS_UNKNOWN_COUNT
     sizes = (found >= 0).sum(axis=1)
     seen: set[tuple[int, ...]] = set()
