@@ -24,7 +24,15 @@ from auv_dock_guidance.geometry.pose import Ellipse, pose_from_circle, pose_from
 from auv_dock_guidance.vision.config import DetectorConfig
 from auv_dock_guidance.vision.detection import Detection
 from auv_dock_guidance.vision.led_ring import LedRing, assemble_rings, ring_model
-from auv_dock_guidance.vision.leds import LedBlob, find_leds, glow_matches, lit_region, refined, water_colour
+from auv_dock_guidance.vision.leds import (
+    LedBlob,
+    find_leds,
+    glow_matches,
+    lit_region,
+    mean_channel,
+    refined,
+    water_colour,
+)
 from auv_dock_guidance.vision.search import Box, picture_area
 from auv_dock_guidance.vision.selection import CandidateShape
 
@@ -58,10 +66,11 @@ def find_led_rings(image: np.ndarray, copy: tuple[np.ndarray, float], camera: Ca
     """Rings of evenly spaced lights in the frame, or in the part of it whose search copy is
     ``copy`` and whose top left corner is ``origin`` (a tracking window)."""
     small, scale = copy
-    rings = _rings_of(image, find_leds(small, scale, config.search_background_px, origin=origin), camera, config, view)
-    lit = lit_region(small) if not rings else None
+    gray = mean_channel(small)  # all the lights are looked for on: made once, not once per look
+    rings = _rings_of(image, find_leds(gray, scale, config.search_background_px, origin=origin), camera, config, view)
+    lit = lit_region(gray) if not rings else None
     if lit is not None:  # LEDs merged with a funnel brighter than the sensor takes: bumps on its outline
-        rings = _rings_of(image, find_leds(small, scale, config.search_background_px, origin=origin, lit=lit),
+        rings = _rings_of(image, find_leds(gray, scale, config.search_background_px, origin=origin, lit=lit),
                           camera, config, view)
     return rings
 

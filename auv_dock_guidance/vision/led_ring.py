@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import lru_cache
 
 import cv2
 import numpy as np
@@ -235,26 +236,44 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
         <= MAX_CIRCLE_RESIDUAL
     weight, found = weight[on_arc], found[on_arc]
     hypotheses = len(found)
+    if not hypotheses:
+        return []
+    free_points = points[index]
+    # Each hypothesis's circle and affine ring, refitted only when it took a light (a row's fit
+    # does not depend on the other rows): most steps most hypotheses find nothing.
+    circles, affine = np.zeros((hypotheses, 4)), np.zeros((hypotheses, 3, 2))
+    stale = np.ones(hypotheses, bool)
+    sizes = np.count_nonzero(weight, axis=1)  # lights each hypothesis holds...
+    untaken = ~(found[:, :, None] == index[None, None, :]).any(axis=1)  # ...and (H, F) those it does not
+    every = np.arange(hypotheses)
     for distance in range(2, count // 2 + 1):
-        affine = np.linalg.solve(np.einsum("hs,si,sj->hij", weight, design, design) + 1e-9 * np.eye(3),
-                                 np.einsum("hs,si,hsj->hij", weight, design, points[np.maximum(found, 0)]))
-        circles = _fit_circles(weight, points[np.maximum(found, 0)], circle)
-        models = (weight.sum(axis=1) < 4, circles, affine)
+        few = sizes < 4
+        if stale.any():
+            if (rows := stale & few).any():
+                circles[rows] = _fit_circles(weight[rows], points[np.maximum(found[rows], 0)], circle)
+            if (rows := stale & ~few).any():
+                affine[rows] = _fit_affine(weight[rows], points[np.maximum(found[rows], 0)], design)
+            stale[:] = False
+        models = (few, circles if few.any() else None, None if few.all() else affine)
         sides = ((distance % count, distance - 1), ((-distance) % count, (1 - distance) % count))
         for slot, previous in sides[: 1 if 2 * distance == count else 2]:
             predicted = _predict(slot, models, circle, design)  # (H, 2)
-            spacing = np.linalg.norm(predicted - _predict(previous, models, circle, design), axis=1)
-            gap = np.linalg.norm(predicted[:, None, :] - points[index][None, :, :], axis=2)  # (H, F)
-            taken = (found[:, :, None] == index[None, None, :]).any(axis=1)
-            within = ~taken & (gap <= MATCH_TOLERANCE * spacing[:, None])
-            brightest = np.argmax(np.where(within, light[None, :], -1.0), axis=1)
-            hit = within[np.arange(hypotheses), brightest] & (found[:, slot] < 0)
-            found[hit, slot] = index[brightest[hit]]
-            weight[hit, slot] = 1.0
+            spacing = _norm(predicted - _predict(previous, models, circle, design))
+            gap = _norm(predicted[:, None, :] - free_points[None, :, :])  # (H, F)
+            within = untaken & (gap <= MATCH_TOLERANCE * spacing[:, None])
+            brightest = np.argmax(np.where(within, light, -1.0), axis=1)
+            hit = within[every, brightest] & (found[:, slot] < 0)
+            if hit.any():
+                took = brightest[hit]
+                found[hit, slot] = index[took]
+                weight[hit, slot] = 1.0
+                untaken[hit, took] = False
+                stale |= hit
+                sizes += hit
     minimum = MIN_LEDS_KNOWN_COUNT if count_known else MIN_COLOURED_LEDS_UNKNOWN_COUNT
     sizes = (found >= 0).sum(axis=1)
     seen: set[tuple[int, ...]] = set()
-    rings = []
+    starts = []
     for h in np.argsort(-sizes, kind="stable"):
         if sizes[h] < minimum or len(seen) >= REFITS:
             break
@@ -263,8 +282,10 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
         if members in seen:
             continue
         seen.add(members)
-        ring = _refit(points, blobs, free, (found[h, slots], slots), count, in_view)
-        if ring is None or ring.occupancy < MIN_OCCUPANCY:
+        starts.append((found[h, slots], slots))
+    rings = []
+    for ring in _Refitter(points, blobs, free, count, in_view).refit(starts):
+        if ring is None:
             continue
         coloured = ring.glow_saturation >= COLOURED_GLOW_SATURATION  # False when not told (NaN)
         if len(ring.members) >= (minimum if count_known or coloured else MIN_LEDS_UNKNOWN_COUNT) \
@@ -273,24 +294,62 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
     return rings
 
 
-def _predict(slot: int, models: tuple[np.ndarray, np.ndarray, np.ndarray], circle: np.ndarray,
+def _predict(slot: int, models: tuple[np.ndarray, np.ndarray | None, np.ndarray | None], circle: np.ndarray,
              design: np.ndarray) -> np.ndarray:
-    """Where each hypothesis puts a slot (H, 2): its circle while it has few LEDs, else its affine ring."""
+    """Where each hypothesis puts a slot (H, 2): its circle while it has few LEDs, else its affine ring
+    (``models``: which have few, and the circles and affine rings, each None where no hypothesis needs it)."""
     few, circles, affine = models
-    return np.where(few[:, None], np.einsum("ri,hi->hr", circle[slot], circles), design[slot] @ affine)
+    if circles is None:
+        assert affine is not None
+        return design[slot] @ affine
+    on_circle = np.einsum("ri,hi->hr", circle[slot], circles)
+    return on_circle if affine is None else np.where(few[:, None], on_circle, design[slot] @ affine)
 
 
+@lru_cache(maxsize=64)
 def _affine_design(count: int) -> np.ndarray:
     """Rows (1, cos, sin) of each slot: the affine ring c + a cos + b sin is linear in c, a, b."""
-    return np.column_stack([np.ones(count), _unit_circle(np.arange(count), count)])
+    return _read_only(np.column_stack([np.ones(count), _unit_circle(np.arange(count), count)]))
 
 
+@lru_cache(maxsize=64)
+def _homogeneous_circle(count: int) -> np.ndarray:
+    """Rows (cos, sin, 1) of each slot: the unit circle's slots on the plane a homography maps."""
+    return _read_only(np.column_stack([_unit_circle(np.arange(count), count), np.ones(count)]))
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    """A cached array nobody may change."""
+    array.setflags(write=False)
+    return array
+
+
+def _norm(vectors: np.ndarray) -> np.ndarray:
+    """Lengths of 2-D vectors along the last axis: np.linalg.norm(axis=-1) to the bit, without its overhead."""
+    return np.sqrt(np.add.reduce(vectors * vectors, axis=-1))
+
+
+def _next(array: np.ndarray, axis: int, step: int = 1) -> np.ndarray:
+    """np.roll(array, -step, axis) for arrays along ``axis``: each slot's neighbour ``step`` further on."""
+    later, first = [slice(None)] * array.ndim, [slice(None)] * array.ndim
+    later[axis], first[axis] = slice(step, None), slice(None, step)
+    return np.concatenate([array[tuple(later)], array[tuple(first)]], axis=axis)
+
+
+@lru_cache(maxsize=64)
 def _circle_design(count: int) -> np.ndarray:
     """(count, 2, 4): the x and y rows of each slot for a circle seen face on, linear in its
     centre and (A, B) = radius * (cos, sin) of its turn: x = cx + A cos - B sin, y = cy + A sin + B cos."""
     cos, sin = _unit_circle(np.arange(count), count).T
     ones, zeros = np.ones(count), np.zeros(count)
-    return np.stack([np.column_stack([ones, zeros, cos, -sin]), np.column_stack([zeros, ones, sin, cos])], axis=1)
+    return _read_only(np.stack([np.column_stack([ones, zeros, cos, -sin]), np.column_stack([zeros, ones, sin, cos])],
+                               axis=1))
+
+
+def _fit_affine(weight: np.ndarray, points: np.ndarray, design: np.ndarray) -> np.ndarray:
+    """Least-squares affine rings (H, 3, 2) through each hypothesis's lights (``points`` (H, count, 2) by slot)."""
+    return np.linalg.solve(np.einsum("hs,si,sj->hij", weight, design, design) + 1e-9 * np.eye(3),
+                           np.einsum("hs,si,hsj->hij", weight, design, points))
 
 
 def _fit_circles(weight: np.ndarray, points: np.ndarray, circle: np.ndarray) -> np.ndarray:
@@ -313,10 +372,10 @@ def _match_positions(points: np.ndarray, light: np.ndarray, free: np.ndarray, pr
                      tolerance: float, in_view: InView | None) -> list[tuple[np.ndarray, np.ndarray, int]]:
     """Per hypothesis (predicted slot positions (H, count, 2)): the brightest light within
     ``tolerance`` of the local spacing of each slot, their slots, and the slots expected in view."""
-    spacing = np.linalg.norm(np.roll(predicted, -1, axis=1) - predicted, axis=2)
-    local = np.minimum(spacing, np.roll(spacing, 1, axis=1))  # (H, count)
+    spacing = _norm(_next(predicted, 1) - predicted)
+    local = np.minimum(spacing, _next(spacing, 1, spacing.shape[1] - 1))  # (H, count): the smaller of both sides
     index = np.flatnonzero(free)
-    gap = np.linalg.norm(predicted[:, :, None, :] - points[index][None, None, :, :], axis=3)  # (H, count, F)
+    gap = _norm(predicted[:, :, None, :] - points[index][None, None, :, :])  # (H, count, F)
     within = gap <= tolerance * local[:, :, None]
     nearest = np.argmax(np.where(within, light[index][None, None, :], -1.0), axis=2)
     found = np.take_along_axis(within, nearest[:, :, None], axis=2)[:, :, 0]
@@ -330,57 +389,108 @@ def _match_positions(points: np.ndarray, light: np.ndarray, free: np.ndarray, pr
     return results
 
 
-def _refit(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, match: tuple[np.ndarray, np.ndarray],
-           count: int, in_view: InView | None) -> LedRing | None:
-    """The ring through the matched lights at their slots, re-matched as the model tightens
-    (`_ring_fit`; from 5 LEDs the ring's perspective image, so the final residual is the
-    centroids' scatter, not the model's), keeping only lights alike in size and brightness.
-    None when the lights stray from the model by more than its tolerance."""
-    lights, slots = match
-    expected = 0
-    light = np.array([b.peak for b in blobs])
-    model: np.ndarray | None = None
-    for rematch in (True, True, False):
-        lights, slots = _alike_members(blobs, lights, slots)
-        if len(lights) < 3:
+class _Refitter:
+    """Refits of one count's hypotheses among the same free lights (`refit`).
+
+    Refits of different hypotheses often converge on the same lights, and a refit that
+    has settled fits the same lights again: the model and the lights it matches are kept
+    per (lights, slots), so each is fitted once; the matches of a round are made for all
+    hypotheses at once.
+    """
+
+    def __init__(self, points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, count: int,
+                 in_view: InView | None) -> None:
+        self.points, self.blobs, self.free, self.count, self.in_view = points, blobs, free, count, in_view
+        self.peak = np.array([b.peak for b in blobs])
+        self.radius = np.array([b.radius_px for b in blobs])
+        self._fits: dict[tuple[bytes, bytes], tuple[np.ndarray, np.ndarray | None] | None] = {}
+        self._matches: dict[tuple[bytes, bytes], tuple[np.ndarray, np.ndarray, int]] = {}
+
+    def refit(self, starts: list[tuple[np.ndarray, np.ndarray]]) -> list[LedRing | None]:
+        """Per start (lights, slots): the ring through the matched lights at their slots,
+        re-matched as the model tightens (`_ring_fit`; from 5 LEDs the ring's perspective
+        image, so the final residual is the centroids' scatter, not the model's), keeping
+        only lights alike in size and brightness. None when the lights stray from the model
+        by more than its tolerance, or when fewer than MIN_OCCUPANCY of the LEDs expected in
+        view are left."""
+        current: list[tuple[np.ndarray, np.ndarray] | None] = list(starts)
+        expected = [0] * len(starts)
+        fitted: list[tuple[np.ndarray, np.ndarray | None] | None] = [None] * len(starts)
+        for rematch in (True, True, False):
+            keys: list[tuple[bytes, bytes] | None] = [None] * len(starts)
+            for i, start in enumerate(current):
+                if start is None:
+                    continue
+                lights, slots = self._alike(*start)
+                key = (lights.tobytes(), slots.tobytes())
+                fitted[i] = self._fit(key, lights, slots) if len(lights) >= 3 else None
+                current[i], keys[i] = ((lights, slots), key) if fitted[i] is not None else (None, None)
+            if rematch:
+                self._match([(told, fit[0]) for told, fit in zip(keys, fitted, strict=True)
+                             if told is not None and fit is not None and told not in self._matches])
+                for i, told in enumerate(keys):
+                    if told is not None:
+                        lights, slots, expected[i] = self._matches[told]
+                        current[i] = (lights, slots)
+        return [None if start is None or fit is None else self._ring(*start, expected[i], fit)
+                for i, (start, fit) in enumerate(zip(current, fitted, strict=True))]
+
+    def _match(self, models: list[tuple[tuple[bytes, bytes], np.ndarray]]) -> None:
+        """The lights at the slots of each model not matched yet, all in one batch."""
+        unique = dict(models)
+        if unique:
+            matched = _match_positions(self.points, self.peak, self.free, np.stack(list(unique.values())),
+                                       FIT_TOLERANCE, self.in_view)
+            self._matches.update(zip(unique, matched, strict=True))
+
+    def _ring(self, lights: np.ndarray, slots: np.ndarray, expected: int,
+              fitted: tuple[np.ndarray, np.ndarray | None]) -> LedRing | None:
+        """The ring of a finished refit, or None (see `refit`)."""
+        if len(lights) / max(1, expected) < MIN_OCCUPANCY:  # the last round only drops lights
             return None
-        model = _slot_model(points[lights], slots, count)
-        if model is None:
+        model, homography = fitted
+        points = self.points[lights]
+        spacing = float(np.mean(_norm(_next(model, 0) - model)))
+        if spacing > MAX_SPACING_SIZES * _median(self.radius[lights]):
             return None
-        if rematch:
-            lights, slots, expected = _match_positions(points, light, free, model[None], FIT_TOLERANCE, in_view)[0]
-    assert model is not None  # the last round fitted it
-    spacing = float(np.mean(np.linalg.norm(np.roll(model, -1, axis=0) - model, axis=1)))
-    if spacing > MAX_SPACING_SIZES * float(np.median([blobs[i].radius_px for i in lights])):
-        return None
-    residual = float(np.sqrt(np.mean(np.sum((points[lights] - model[slots]) ** 2, axis=1)))) / max(spacing, 1e-9)
-    (center, a, b), tolerance = _ring_fit(points[lights], slots, count)
-    if residual > tolerance:
-        return None
-    homography = _homography(points[lights], slots, count) if len(lights) >= 5 else None
-    if homography is not None:
-        projected = homography @ np.array([0.0, 0.0, 1.0])
-        center = projected[:2] / projected[2]
-    return LedRing(
-        members=tuple(int(x) for x in lights), slots=tuple(int(s) for s in slots), count=count,
-        center=(float(center[0]), float(center[1])), axis_a=(float(a[0]), float(a[1])),
-        axis_b=(float(b[0]), float(b[1])), expected=expected, residual=residual,
-        light=float(sum(blobs[i].peak for i in lights)),
-        glow_saturation=_least_told(np.array([glow_saturation(blobs[i].glow_bgr) for i in lights])),
-    )
+        residual = float(np.sqrt(np.mean(np.sum((points - model[slots]) ** 2, axis=1)))) / max(spacing, 1e-9)
+        (center, a, b), tolerance = _ring_fit(points, slots, self.count)
+        if residual > tolerance:
+            return None
+        if homography is not None:  # from 5 LEDs: the centre where the perspective image puts it
+            projected = homography @ np.array([0.0, 0.0, 1.0])
+            center = projected[:2] / projected[2]
+        blobs = self.blobs
+        return LedRing(
+            members=tuple(int(x) for x in lights), slots=tuple(int(s) for s in slots), count=self.count,
+            center=(float(center[0]), float(center[1])), axis_a=(float(a[0]), float(a[1])),
+            axis_b=(float(b[0]), float(b[1])), expected=expected, residual=residual,
+            light=float(sum(blobs[i].peak for i in lights)),
+            glow_saturation=_least_told(np.array([glow_saturation(blobs[i].glow_bgr) for i in lights])),
+        )
+
+    def _fit(self, key: tuple[bytes, bytes], lights: np.ndarray,
+             slots: np.ndarray) -> tuple[np.ndarray, np.ndarray | None] | None:
+        if key not in self._fits:
+            self._fits[key] = _slot_model(self.points[lights], slots, self.count)
+        return self._fits[key]
+
+    def _alike(self, lights: np.ndarray, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The lights within ALIKE of the members' median size and brightness."""
+        if len(lights) == 0:
+            return lights, slots
+        keep = np.ones(len(lights), bool)
+        for values in (self.radius[lights], self.peak[lights]):
+            median = _median(values)
+            keep &= (values <= ALIKE * median) & (values >= median / ALIKE)
+        return lights[keep], slots[keep]
 
 
-def _alike_members(blobs: list[LedBlob], lights: np.ndarray, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The lights within ALIKE of the members' median size and brightness."""
-    if len(lights) == 0:
-        return lights, slots
-    radius = np.array([blobs[i].radius_px for i in lights])
-    peak = np.array([blobs[i].peak for i in lights])
-    keep = np.ones(len(lights), bool)
-    for values in (radius, peak):
-        median = float(np.median(values))
-        keep &= (values <= ALIKE * median) & (values >= median / ALIKE)
-    return lights[keep], slots[keep]
+def _median(values: np.ndarray) -> float:
+    """np.median of a short array of finite values, the same number without its overhead."""
+    ordered = np.sort(values)
+    mid = len(ordered) // 2
+    return float(ordered[mid]) if len(ordered) % 2 else float((ordered[mid - 1] + ordered[mid]) / 2)
 
 
 def _unit_circle(slots: np.ndarray, count: int) -> np.ndarray:
@@ -426,16 +536,16 @@ def _homography(xy: np.ndarray, slots: np.ndarray, count: int) -> np.ndarray | N
     return None if homography is None or not np.all(np.isfinite(homography)) else homography
 
 
-def _slot_model(xy: np.ndarray, slots: np.ndarray, count: int) -> np.ndarray | None:
-    """Where the model through these lights puts all ``count`` slots (count, 2)."""
+def _slot_model(xy: np.ndarray, slots: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray | None] | None:
+    """Where the model through these lights puts all ``count`` slots (count, 2), and its
+    homography when it is the ring's perspective image (from 5 lights)."""
     if len(xy) >= 5:
         homography = _homography(xy, slots, count)
         if homography is None:
             return None
-        circle = np.column_stack([_unit_circle(np.arange(count), count), np.ones(count)])
-        image = circle @ homography.T
+        image = _homogeneous_circle(count) @ homography.T
         if np.any(np.abs(image[:, 2]) < 1e-9) or np.ptp(np.sign(image[:, 2])) > 0:
             return None  # the ring would cross the horizon: not a ring seen from in front
-        return image[:, :2] / image[:, 2:]
+        return image[:, :2] / image[:, 2:], homography
     center, a, b = ring_model(xy, slots, count)
-    return _positions(center, a, b, count)
+    return _positions(center, a, b, count), None

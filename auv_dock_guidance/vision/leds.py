@@ -75,8 +75,9 @@ def find_leds(small: np.ndarray, scale: float, background_px: int, max_count: in
     """Compact bright blobs, strongest first, at most ``max_count``; centres from the copy.
 
     ``small`` is the search copy at ``scale`` of the frame, or of the part of it whose top
-    left corner is ``origin`` (full-resolution pixels); ``background_px`` the width of
-    the top-hat's opening on it (wider than any LED, narrower than the lit funnel).
+    left corner is ``origin`` (full-resolution pixels), or the copy's `mean_channel` made
+    already; ``background_px`` the width of the top-hat's opening on it (wider than any LED,
+    narrower than the lit funnel).
     ``lit`` instead: the LEDs as bumps on the outline of that lit region, which they merge
     with (a funnel brighter than the sensor takes), found by a round opening that fits
     between the funnel's vanes but not into an LED.
@@ -136,7 +137,8 @@ class LitRegion:
 
 
 def lit_region(small: np.ndarray) -> LitRegion | None:
-    """The copy's pixels at full scale, if a part of them is wider than an LED."""
+    """The copy's pixels at full scale, if a part of them is wider than an LED (``small``: the copy or its
+    `mean_channel`)."""
     bright = (mean_channel(small) >= _LIT_LEVEL).astype(np.uint8)
     count, _, stats, _ = cv2.connectedComponentsWithStats(bright, connectivity=8)
     if count <= 1:
