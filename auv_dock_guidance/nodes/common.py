@@ -172,7 +172,7 @@ def run_nodes(factories: list[Callable[[], Node]], args: list[str] | None = None
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except RuntimeError:
-        if rclpy.ok():
+        if not context_shutting_down():
             raise
         # Ctrl-C shut the context down while the executor was taking a message: a clean stop.
     except (DockGuidanceError, InvalidParameterValueException) as exc:
@@ -192,6 +192,19 @@ def run_nodes(factories: list[Callable[[], Node]], args: list[str] | None = None
 
 
 TEARDOWN_EXIT_CODE = 3
+
+
+def context_shutting_down(within_s: float = 1.0, context: rclpy.context.Context | None = None) -> bool:
+    """Whether the context is shut down, or is within ``within_s``: rclpy's signal handler shuts it
+    down from its own thread, and under load a take can fail on the half-finalized subscription
+    ("Unable to convert call argument") before ``rclpy.ok()`` turns False (the race
+    ros/joint_state_publisher#117 reports). A real error still raises, a second late."""
+    deadline = time.monotonic() + within_s
+    while rclpy.ok(context=context):
+        if time.monotonic() >= deadline:
+            return False
+        time.sleep(0.02)
+    return True
 
 
 def _end_if_teardown_hangs(seconds: float = 4.0) -> threading.Timer:

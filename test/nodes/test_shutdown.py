@@ -6,16 +6,18 @@ import signal
 import subprocess
 import sys
 import textwrap
+import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
 
 import cv2
 import pytest
+import rclpy
 
 from auv_dock_guidance.geometry.camera import paper_camera
 from auv_dock_guidance.launcher import ros_environment
-from auv_dock_guidance.nodes.common import TEARDOWN_EXIT_CODE
+from auv_dock_guidance.nodes.common import TEARDOWN_EXIT_CODE, context_shutting_down
 from auv_dock_guidance.resources import config_file
 from auv_dock_guidance.sim.main_controller import NEUTRAL, MainControllerSim
 from auv_dock_guidance.sim.scene import SceneSpec, render
@@ -35,6 +37,18 @@ STUCK_AT_EXIT = textwrap.dedent("""
 
     raise SystemExit(run_nodes([Stuck]))
 """)
+
+
+def test_a_take_that_fails_while_the_signal_handler_shuts_the_context_down_is_a_clean_stop():
+    """rclpy's signal handler shuts the context down from its own thread: a take can fail just before."""
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        assert not context_shutting_down(0.1, context)  # a real error: no shutdown under way
+        threading.Timer(0.2, context.shutdown).start()
+        assert context_shutting_down(1.0, context)
+    finally:
+        context.try_shutdown()
 
 
 def test_a_node_whose_teardown_hangs_still_exits_and_says_so(domain_id):
