@@ -100,9 +100,8 @@ class AxisEstimator:
 
     def _estimated(self) -> AxisEstimate | None:
         c = self.config
-        obs = np.array(self._observations)
-        if len(obs):
-            obs = obs[obs[:, 4] <= c.superseded_ratio * obs[-1, 4]]
+        obs = np.array(self._observations)  # called after each observation: never empty
+        obs = obs[obs[:, 4] <= c.superseded_ratio * obs[-1, 4]]
         if len(obs) < c.min_observations or self._line_of_sight_rad is None:
             return self._estimate  # too few views from about here yet: the last estimate stands
         recent = obs[-c.candidates:]
