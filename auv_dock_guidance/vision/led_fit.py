@@ -26,6 +26,7 @@ from auv_dock_guidance.vision.detection import Detection
 from auv_dock_guidance.vision.led_ring import LedRing, assemble_rings, ring_model
 from auv_dock_guidance.vision.leds import (
     LedBlob,
+    LitRegion,
     find_leds,
     glow_matches,
     lit_region,
@@ -35,6 +36,8 @@ from auv_dock_guidance.vision.leds import (
 )
 from auv_dock_guidance.vision.search import Box, picture_area
 from auv_dock_guidance.vision.selection import CandidateShape
+
+_LIT_FACE_RADII = 1.5  # ring radii out from the centre where a ring on a lit face still finds full scale
 
 
 @dataclass(frozen=True)
@@ -67,12 +70,40 @@ def find_led_rings(image: np.ndarray, copy: tuple[np.ndarray, float], camera: Ca
     ``copy`` and whose top left corner is ``origin`` (a tracking window)."""
     small, scale = copy
     gray = mean_channel(small)  # all the lights are looked for on: made once, not once per look
-    rings = _rings_of(image, find_leds(gray, scale, config.search_background_px, origin=origin), camera, config, view)
-    lit = lit_region(gray) if not rings else None
-    if lit is not None:  # LEDs merged with a funnel brighter than the sensor takes: bumps on its outline
-        rings = _rings_of(image, find_leds(gray, scale, config.search_background_px, origin=origin, lit=lit),
-                          camera, config, view)
+    lit = lit_region(gray)
+
+    def round_the_lit(rings: list[LedRingCandidate]) -> list[LedRingCandidate]:
+        return rings if lit is None else [r for r in rings if not _on_lit_face(r, lit, scale, origin, camera)]
+
+    rings = round_the_lit(_rings_of(image, find_leds(gray, scale, config.search_background_px, origin=origin),
+                                    camera, config, view))
+    if lit is not None and not rings:  # LEDs merged with a funnel brighter than the sensor takes: bumps on its outline
+        rings = round_the_lit(_rings_of(
+            image, find_leds(gray, scale, config.search_background_px, origin=origin, lit=lit), camera, config, view))
     return rings
+
+
+def _on_lit_face(candidate: LedRingCandidate, lit: LitRegion, scale: float, origin: tuple[int, int],
+                 camera: CameraModel | None) -> bool:
+    """Whether the ring's surroundings are at full scale all round: spots on a lit funnel's face (its
+    plateau between the vanes round the hub, close in), not LEDs round its rim, beyond which lies the
+    dark dock or water. Looked at on a wider ring through every slot; only for a ring wholly in view
+    (the affine ring through a corner's few LEDs is too loose to tell its surroundings)."""
+    ring = candidate.ring
+    if not ring.whole:
+        return False
+    centre = np.array(ring.center)
+    around = centre + _LIT_FACE_RADII * (ring.slot_positions() - centre)
+    copy = (_plane_to_pixels(around, camera) - np.asarray(origin)) * scale
+    x, y = np.round(copy[:, 0]).astype(int), np.round(copy[:, 1]).astype(int)
+    h, w = lit.mask.shape
+    seen = (x >= 0) & (x < w) & (y >= 0) & (y < h)
+    return bool(seen.any() and np.count_nonzero(lit.mask[y[seen], x[seen]]) >= 0.5 * np.count_nonzero(seen))
+
+
+def _plane_to_pixels(plane: np.ndarray, camera: CameraModel | None) -> np.ndarray:
+    """Image pixels of points on the plane the rings are fitted on (normalized, scaled by the focal length)."""
+    return plane if camera is None else camera.normalized_to_pixels(plane / camera.focal_px)
 
 
 def _rings_of(image: np.ndarray, found: list[LedBlob], camera: CameraModel | None, config: DetectorConfig,
@@ -97,7 +128,7 @@ def _rings_of(image: np.ndarray, found: list[LedBlob], camera: CameraModel | Non
 
     def in_view(plane: np.ndarray) -> np.ndarray:
         """Whether a point on the fitting plane shows in the picture (an LED's size clear of its edge)."""
-        px = plane if camera is None else camera.normalized_to_pixels(plane / focal)
+        px = _plane_to_pixels(plane, camera)
         return ((px[:, 0] >= x0 + margin) & (px[:, 0] <= x1 - 1 - margin)
                 & (px[:, 1] >= y0 + margin) & (px[:, 1] <= y1 - 1 - margin))
 

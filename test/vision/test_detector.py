@@ -235,3 +235,21 @@ def test_a_distant_ring_whose_leds_bloom_into_one_glow_is_found_from_its_leds():
         detection = Detector(camera, DetectorConfig(marker_radius_m=world.entrance_radius_m)).detect(image)
         assert detection.found and detection.led_count == 9 and len(detection.leds) >= 6, (noise, detection.reason)
         assert math.hypot(detection.u - truth.center_px[0], detection.v - truth.center_px[1]) < 0.1 * truth.radius_px
+
+
+@pytest.mark.parametrize("off_axis_deg", [0.0, 25.0])
+def test_a_lit_funnel_close_in_is_not_taken_for_a_small_ring_round_its_hub(off_axis_deg):
+    """The open-water dock of closed-loop episode 108 (a strip round a funnel lit brighter than
+    the sensor takes, four dark vanes and a hub) 3.8 m away: the funnel is one white disc, and
+    the plateau's spots between the vanes round the hub looked like a ring of LEDs a seventh of
+    the entrance's size (range 23 m instead of 3.8; the episode's tracker followed it)."""
+    world = episode_world(EpisodeConfig(scenario="open-water"), np.random.default_rng(108))
+    camera = paper_camera().scaled(0.5)
+    axis_yaw = math.atan2(world.dock_axis[1], world.dock_axis[0]) + math.radians(off_axis_deg)
+    p = world.dock_center - 3.8 * np.array([math.cos(axis_yaw), math.sin(axis_yaw), 0.0])
+    pose = VehiclePose(float(p[0]), float(p[1]), float(p[2]), yaw=-axis_yaw)
+    for noise in range(1, 4):
+        image, truth = render(camera, world.scene_for(pose, seed=noise))
+        detection = Detector(camera, DetectorConfig(marker_radius_m=world.entrance_radius_m)).detect(image)
+        assert detection.found, (noise, detection.reason)
+        assert detection.radius_px == pytest.approx(truth.radius_px, rel=0.15), noise
