@@ -6,7 +6,8 @@ States:
 * TRACK: the marker is confirmed (``confirm_frames`` frames in a row with it; a frame
   without it, reported by ``marker_missed()``, starts the count again); the cascade
   steers towards it at the scheduled speed.
-* TERMINAL: close range (below ``terminal_range_m``). The ring fills the frame or leaves
+* TERMINAL: close range (below ``terminal_range_m`` in ``terminal_confirm_frames``
+  detections in a row: one wild detection far out must not end the approach). The ring fills the frame or leaves
   it, so a lost marker is expected: the last good attitude goal is held, turns stay rate
   limited, and the vehicle keeps going at terminal speed. Detections closer than
   ``blind_range_m`` or jumping more than ``terminal_max_bearing_jump_rad`` from the last
@@ -81,6 +82,7 @@ class State(StrEnum):
 class GuidanceConfig:
     confirm_frames: int = 3  # detections in a row before TRACK
     terminal_range_m: float = 2.5
+    terminal_confirm_frames: int = 2  # detections in a row below terminal_range_m before TERMINAL (one is an outlier)
     track_lost_timeout_s: float = 2.0  # TRACK without a detection this long -> SEARCH
     blind_range_m: float = 1.5  # below this the ring is expected to leave the frame: go on blind
     terminal_lost_timeout_s: float = 3.0  # lost this long in TERMINAL while farther than blind_range_m -> ABORT
@@ -112,8 +114,10 @@ class GuidanceConfig:
             self.telemetry_timeout_s, self.detection_max_age_s, self.max_roll_rad, self.max_pitch_rad,
             self.blind_range_m, self.camera_timeout_s, self.recovery_s, self.speed_time_constant_s,
         )
-        if not all(math.isfinite(v) and v > 0 for v in positive) or self.confirm_frames < 1 or self.dock_margin_m < 0:
-            raise ConfigError("guidance timeouts, ranges and limits must be positive numbers, confirm_frames >= 1")
+        if not all(math.isfinite(v) and v > 0 for v in positive) or min(
+                self.confirm_frames, self.terminal_confirm_frames) < 1 or self.dock_margin_m < 0:
+            raise ConfigError("guidance timeouts, ranges and limits must be positive numbers, confirm_frames and "
+                              "terminal_confirm_frames >= 1")
         if self.max_retries < 0:
             raise ConfigError(f"max_retries {self.max_retries} must be 0 or more")
 
@@ -184,6 +188,7 @@ class Guidance:
         self._surge = 0.0  # the surge share of the last command
         self._since: float | None = None  # time the current state began
         self._streak = 0
+        self._close_streak = 0  # detections in a row below the terminal range
         self._last_target: Target | None = None  # the last detection steered by
         self._last_seen_s: float | None = None  # the last detection of any kind
         self._last_frame_s: float | None = None  # the last processed frame (None: not reported)
@@ -240,7 +245,7 @@ class Guidance:
 
     def marker_missed(self) -> None:
         """A camera frame came without the marker: confirmation starts again."""
-        self._streak = 0
+        self._streak = self._close_streak = 0
 
     def frame_processed(self, now_s: float) -> None:
         """The detector processed a frame (marker or not): the camera is alive."""
@@ -375,6 +380,7 @@ class Guidance:
         previous = self.state
         if target is not None:
             self._streak += 1
+            self._close_streak = self._close_streak + 1 if target.range_m < c.terminal_range_m else 0
         lost_for = now_s - self._last_seen_s if self._last_seen_s is not None else math.inf
         if target is not None:
             lost_for = 0.0
@@ -426,8 +432,9 @@ class Guidance:
             elif plan is not None and plan.verdict is Verdict.BACKED_OFF and lost_for <= c.track_lost_timeout_s:
                 new_state, reason = State.TRACK, f"backed off to {plan.along_m:.1f} m: approach again"
         elif previous is State.TRACK:
-            if target is not None and target.range_m < c.terminal_range_m:
-                new_state, reason = State.TERMINAL, f"range {target.range_m:.2f} m below {c.terminal_range_m} m"
+            if target is not None and self._close_streak >= c.terminal_confirm_frames:
+                new_state, reason = State.TERMINAL, (f"range {target.range_m:.2f} m below {c.terminal_range_m} m "
+                                                     f"in {self._close_streak} frames")
             elif lost_for > c.track_lost_timeout_s:
                 new_state, reason = State.SEARCH, f"marker lost for {lost_for:.1f} s"
         elif previous is State.TERMINAL:
