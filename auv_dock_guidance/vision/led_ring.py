@@ -40,6 +40,7 @@ MAX_CIRCLE_RESIDUAL = 0.2  # the same from a circle through few LEDs: scatter an
 MAX_COUNT_UNKNOWN = 32  # beyond this many LEDs they merge into a strip; the outline path takes them
 SEED_LIGHTS = 16  # the strongest lights that seed hypotheses (all of them can confirm one)
 MAX_SPACING_SIZES = 30.0  # LEDs further apart than this many of their radii: specks that happen to line up
+# (not asked of bumps on a lit region's outline: their size is the LED's part outside the rim, not the LED's)
 ALIKE = 2.5  # the LEDs of one ring are alike: size and brightness within this factor of their median
 GLOW_SATURATION_RATIO = 1.6  # a ring whose palest glow is this much paler than another ring's: what LEDs light
 REFITS = 12  # hypotheses refitted per LED count, those the most lights confirm
@@ -403,6 +404,7 @@ class _Refitter:
         self.points, self.blobs, self.free, self.count, self.in_view = points, blobs, free, count, in_view
         self.peak = np.array([b.peak for b in blobs])
         self.radius = np.array([b.radius_px for b in blobs])
+        self.on_outline = np.array([b.on_outline for b in blobs], bool)
         self._fits: dict[tuple[bytes, bytes], tuple[np.ndarray, np.ndarray | None] | None] = {}
         self._matches: dict[tuple[bytes, bytes], tuple[np.ndarray, np.ndarray, int]] = {}
 
@@ -451,7 +453,7 @@ class _Refitter:
         model, homography = fitted
         points = self.points[lights]
         spacing = float(np.mean(_norm(_next(model, 0) - model)))
-        if spacing > MAX_SPACING_SIZES * _median(self.radius[lights]):
+        if spacing > MAX_SPACING_SIZES * _median(self.radius[lights]) and not self.on_outline[lights].all():
             return None
         residual = float(np.sqrt(np.mean(np.sum((points - model[slots]) ** 2, axis=1)))) / max(spacing, 1e-9)
         (center, a, b), tolerance = _ring_fit(points, slots, self.count)

@@ -61,6 +61,7 @@ class LedBlob:
     strength: float  # centre-surround contrast in noise deviations
     isolated: bool = True  # darker all round: may seed a ring (else it sits in a glow and can only complete one)
     glow_bgr: tuple[float, float, float] | None = None  # light it adds around its core over the water (`refined`)
+    on_outline: bool = False  # a bump on a lit region's outline: its size is its part outside the rim
 
 
 def mean_channel(image: np.ndarray) -> np.ndarray:
@@ -121,7 +122,8 @@ def find_leds(small: np.ndarray, scale: float, background_px: int, max_count: in
         u, v = (x[i] + 0.5) / scale - 0.5 + origin[0], (y[i] + 0.5) / scale - 0.5 + origin[1]
         if any(math.hypot(u - b.u, v - b.v) < max(b.radius_px, r) for b in blobs):
             continue  # the same light seen from another of its maxima
-        blobs.append(LedBlob(float(u), float(v), r, float(peak[i]), float(strength[i]), bool(isolated[i])))
+        blobs.append(LedBlob(float(u), float(v), r, float(peak[i]), float(strength[i]), bool(isolated[i]),
+                             on_outline=lit is not None))
         if len(blobs) >= max_count:
             break
     return blobs

@@ -253,3 +253,23 @@ def test_a_lit_funnel_close_in_is_not_taken_for_a_small_ring_round_its_hub(off_a
         detection = Detector(camera, DetectorConfig(marker_radius_m=world.entrance_radius_m)).detect(image)
         assert detection.found, (noise, detection.reason)
         assert detection.radius_px == pytest.approx(truth.radius_px, rel=0.15), noise
+
+
+@pytest.mark.parametrize("turned_deg", [18.0, 22.0])
+def test_leds_on_a_lit_funnels_rim_near_the_frames_edge_are_found(turned_deg):
+    """The open-water dock of closed-loop episode 73 (six blue LEDs blooming into a white funnel)
+    5.5 m ahead, the nose turned away as when the vehicle crabs in a cross current. The LEDs are
+    found as bumps on the funnel's outline, whose size is only their part outside the rim: six
+    of them lie 35 of those sizes apart, and the ring was taken for specks that happen to line
+    up (the episode lost the dock for 2.5 s at 5 m and drifted into it sideways)."""
+    world = episode_world(EpisodeConfig(scenario="open-water"), np.random.default_rng(73))
+    camera = paper_camera().scaled(0.5)
+    axis_yaw = math.atan2(world.dock_axis[1], world.dock_axis[0])
+    p = world.dock_center - 5.5 * world.dock_axis
+    pose = VehiclePose(float(p[0]), float(p[1]), float(p[2]), yaw=-axis_yaw - math.radians(turned_deg))
+    for noise in range(1, 4):
+        image, truth = render(camera, world.scene_for(pose, seed=noise))
+        assert truth.center_px[0] > 0.8 * camera.width
+        detection = Detector(camera, DetectorConfig(marker_radius_m=world.entrance_radius_m)).detect(image)
+        assert detection.found and detection.led_count == 6, (noise, detection.reason)
+        assert math.hypot(detection.u - truth.center_px[0], detection.v - truth.center_px[1]) < 0.1 * truth.radius_px
