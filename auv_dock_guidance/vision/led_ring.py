@@ -239,37 +239,47 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
     if not hypotheses:
         return []
     free_points = points[index]
-    # Each hypothesis's circle and affine ring, refitted only when it took a light (a row's fit
-    # does not depend on the other rows): most steps most hypotheses find nothing.
+    # Each hypothesis's circle or affine ring is refitted only when it took a light (a row's fit
+    # does not depend on the other rows), and its slots predicted once per fit. Most steps no
+    # hypothesis finds anything: the steps up to the next one where some hypothesis takes a
+    # light are matched in one batch, and growth goes on after it.
     circles, affine = np.zeros((hypotheses, 4)), np.zeros((hypotheses, 3, 2))
+    predicted = np.zeros((hypotheses, count, 2))
+    visits, before, distance_end = _growth_steps(count)
+    spacing = np.zeros((hypotheses, len(visits)))
     stale = np.ones(hypotheses, bool)
     sizes = np.count_nonzero(weight, axis=1)  # lights each hypothesis holds...
     untaken = ~(found[:, :, None] == index[None, None, :]).any(axis=1)  # ...and (H, F) those it does not
-    every = np.arange(hypotheses)
-    for distance in range(2, count // 2 + 1):
-        few = sizes < 4
-        if stale.any():
+    step = 0
+    while step < len(visits):
+        if stale.any() and (step == 0 or distance_end[step - 1] == step):  # refits wait for the next distance
+            few = sizes < 4
             if (rows := stale & few).any():
                 circles[rows] = _fit_circles(weight[rows], points[np.maximum(found[rows], 0)], circle)
             if (rows := stale & ~few).any():
                 affine[rows] = _fit_affine(weight[rows], points[np.maximum(found[rows], 0)], design)
+            predicted[stale] = _slot_predictions(few[stale], circles[stale], affine[stale], circle, design)
+            spacing[stale] = _norm(predicted[stale][:, visits] - predicted[stale][:, before])
             stale[:] = False
-        models = (few, circles if few.any() else None, None if few.all() else affine)
-        sides = ((distance % count, distance - 1), ((-distance) % count, (1 - distance) % count))
-        for slot, previous in sides[: 1 if 2 * distance == count else 2]:
-            predicted = _predict(slot, models, circle, design)  # (H, 2)
-            spacing = _norm(predicted - _predict(previous, models, circle, design))
-            gap = _norm(predicted[:, None, :] - free_points[None, :, :])  # (H, F)
-            within = untaken & (gap <= MATCH_TOLERANCE * spacing[:, None])
-            brightest = np.argmax(np.where(within, light, -1.0), axis=1)
-            hit = within[every, brightest] & (found[:, slot] < 0)
-            if hit.any():
-                took = brightest[hit]
-                found[hit, slot] = index[took]
-                weight[hit, slot] = 1.0
-                untaken[hit, took] = False
-                stale |= hit
-                sizes += hit
+        end = distance_end[step] if stale.any() else len(visits)
+        gap = _norm(predicted[:, visits[step:end], None, :] - free_points[None, None, :, :])  # (H, steps, F)
+        within = untaken[:, None, :] & (gap <= MATCH_TOLERANCE * spacing[:, step:end, None])
+        brightest = np.argmax(np.where(within, light, -1.0), axis=2)  # (H, steps)
+        hit = np.take_along_axis(within, brightest[:, :, None], axis=2)[:, :, 0] & (found[:, visits[step:end]] < 0)
+        taking = np.flatnonzero(hit.any(axis=0))
+        if not len(taking):
+            step = end
+            continue
+        first = int(taking[0])
+        hit = hit[:, first]
+        took = brightest[hit, first]
+        step += first
+        found[hit, visits[step]] = index[took]
+        weight[hit, visits[step]] = 1.0
+        untaken[hit, took] = False
+        stale |= hit
+        sizes += hit
+        step += 1
     minimum = MIN_LEDS_KNOWN_COUNT if count_known else MIN_COLOURED_LEDS_UNKNOWN_COUNT
     sizes = (found >= 0).sum(axis=1)
     seen: set[tuple[int, ...]] = set()
@@ -294,16 +304,29 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
     return rings
 
 
-def _predict(slot: int, models: tuple[np.ndarray, np.ndarray | None, np.ndarray | None], circle: np.ndarray,
-             design: np.ndarray) -> np.ndarray:
-    """Where each hypothesis puts a slot (H, 2): its circle while it has few LEDs, else its affine ring
-    (``models``: which have few, and the circles and affine rings, each None where no hypothesis needs it)."""
-    few, circles, affine = models
-    if circles is None:
-        assert affine is not None
-        return design[slot] @ affine
-    on_circle = np.einsum("ri,hi->hr", circle[slot], circles)
-    return on_circle if affine is None else np.where(few[:, None], on_circle, design[slot] @ affine)
+def _slot_predictions(few: np.ndarray, circles: np.ndarray, affine: np.ndarray, circle: np.ndarray,
+                      design: np.ndarray) -> np.ndarray:
+    """Where each hypothesis puts every slot (H, count, 2): its circle while it has few LEDs
+    (``few``), else its affine ring. Each slot is predicted as on its own (a (1, 3) row times
+    the affine ring; the circle's contraction per slot), so the numbers are those of one slot at a time."""
+    on_affine = np.matmul(design[None, :, None, :], affine[:, None, :, :])[:, :, 0, :]
+    return np.where(few[:, None, None], np.einsum("sri,hi->hsr", circle, circles), on_affine)
+
+
+@lru_cache(maxsize=64)
+def _growth_steps(count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The slots growth visits, in order (one step further out on each side in turn), the slot
+    before each on its side, and the index of the step after each step's distance."""
+    visits: list[int] = []
+    before: list[int] = []
+    distance_end: list[int] = []
+    for distance in range(2, count // 2 + 1):
+        sides = [(distance % count, distance - 1), ((-distance) % count, (1 - distance) % count)]
+        for slot, previous in sides[: 1 if 2 * distance == count else 2]:
+            visits.append(slot)
+            before.append(previous)
+        distance_end += [len(visits)] * (len(visits) - len(distance_end))
+    return _read_only(np.array(visits)), _read_only(np.array(before)), _read_only(np.array(distance_end))
 
 
 @lru_cache(maxsize=64)
