@@ -117,12 +117,16 @@ def _best_ring(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, in_vi
     else:
         low, high = _counts_to_try(points, triples)
         by_count = {n: triples[(low <= n) & (n <= high)] for n in range(int(low.min()), int(high.max()) + 1)}
+    # Largest counts first: a ring holds at most one LED per slot, so a count below the best
+    # ring's LEDs cannot beat it and is not tried. Of rings that rank alike, the one of the
+    # smaller count is kept, as trying the counts upwards would keep it.
     best: LedRing | None = None
-    for count, group in by_count.items():
-        if not len(group):
+    for count in sorted(by_count, reverse=True):
+        group = by_count[count]
+        if not len(group) or (best is not None and count < len(best.members)):
             continue
         for ring in _hypotheses(points, blobs, free, group, count, in_view, led_count is not None):
-            if best is None or _better(ring, best):
+            if best is None or _better(ring, best) or (count < best.count and not _better(best, ring)):
                 best = ring
     return best
 
