@@ -263,10 +263,10 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
             if (rows := stale & ~few).any():
                 affine[rows] = _fit_affine(weight[rows], points[np.maximum(found[rows], 0)], design)
             predicted[stale] = _slot_predictions(few[stale], circles[stale], affine[stale], circle, design)
-            spacing[stale] = _norm(predicted[stale][:, visits] - predicted[stale][:, before])
+            spacing[stale] = _distance(predicted[stale][:, visits], predicted[stale][:, before])
             stale[:] = False
         end = distance_end[step] if stale.any() else len(visits)
-        gap = _norm(predicted[:, visits[step:end], None, :] - free_points[None, None, :, :])  # (H, steps, F)
+        gap = _distance(predicted[:, visits[step:end], None, :], free_points)  # (H, steps, F)
         within = untaken[:, None, :] & (gap <= MATCH_TOLERANCE * spacing[:, step:end, None])
         brightest = np.argmax(np.where(within, light, -1.0), axis=2)  # (H, steps)
         hit = np.take_along_axis(within, brightest[:, :, None], axis=2)[:, :, 0] & (found[:, visits[step:end]] < 0)
@@ -351,9 +351,12 @@ def _read_only(array: np.ndarray) -> np.ndarray:
     return array
 
 
-def _norm(vectors: np.ndarray) -> np.ndarray:
-    """Lengths of 2-D vectors along the last axis: np.linalg.norm(axis=-1) to the bit, without its overhead."""
-    return np.sqrt(np.add.reduce(vectors * vectors, axis=-1))
+def _distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distances between 2-D points along the last axis (broadcast): np.linalg.norm(a - b, axis=-1)
+    to the bit, without its overhead nor the differences' array of pairs."""
+    dx = a[..., 0] - b[..., 0]
+    dy = a[..., 1] - b[..., 1]
+    return np.sqrt(dx * dx + dy * dy)
 
 
 def _next(array: np.ndarray, axis: int, step: int = 1) -> np.ndarray:
@@ -399,10 +402,10 @@ def _match_positions(points: np.ndarray, light: np.ndarray, free: np.ndarray, pr
                      tolerance: float, in_view: InView | None) -> list[tuple[np.ndarray, np.ndarray, int]]:
     """Per hypothesis (predicted slot positions (H, count, 2)): the brightest light within
     ``tolerance`` of the local spacing of each slot, their slots, and the slots expected in view."""
-    spacing = _norm(_next(predicted, 1) - predicted)
+    spacing = _distance(_next(predicted, 1), predicted)
     local = np.minimum(spacing, _next(spacing, 1, spacing.shape[1] - 1))  # (H, count): the smaller of both sides
     index = np.flatnonzero(free)
-    gap = _norm(predicted[:, :, None, :] - points[index][None, None, :, :])  # (H, count, F)
+    gap = _distance(predicted[:, :, None, :], points[index])  # (H, count, F)
     within = gap <= tolerance * local[:, :, None]
     nearest = np.argmax(np.where(within, light[index][None, None, :], -1.0), axis=2)
     found = np.take_along_axis(within, nearest[:, :, None], axis=2)[:, :, 0]
@@ -477,7 +480,7 @@ class _Refitter:
             return None
         model, homography = fitted
         points = self.points[lights]
-        spacing = float(np.mean(_norm(_next(model, 0) - model)))
+        spacing = float(np.mean(_distance(_next(model, 0), model)))
         if spacing > MAX_SPACING_SIZES * _median(self.radius[lights]):
             return None
         residual = float(np.sqrt(np.mean(np.sum((points - model[slots]) ** 2, axis=1)))) / max(spacing, 1e-9)
