@@ -125,7 +125,8 @@ def _best_ring(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, in_vi
         group = by_count[count]
         if not len(group) or (best is not None and count < len(best.members)):
             continue
-        for ring in _hypotheses(points, blobs, free, group, count, in_view, led_count is not None):
+        fewest = len(best.members) if best is not None else 0
+        for ring in _hypotheses(points, blobs, free, group, count, in_view, led_count is not None, fewest):
             if best is None or _better(ring, best) or (count < best.count and not _better(best, ring)):
                 best = ring
     return best
@@ -209,8 +210,9 @@ def _positions(center: np.ndarray, a: np.ndarray, b: np.ndarray, count: int) -> 
 
 
 def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, triples: np.ndarray, count: int,
-                in_view: InView | None, count_known: bool) -> list[LedRing]:
-    """Rings of ``count`` LEDs grown from the triples and confirmed by the lights.
+                in_view: InView | None, count_known: bool, fewest: int = 0) -> list[LedRing]:
+    """Rings of ``count`` LEDs grown from the triples and confirmed by the lights (none of
+    fewer than ``fewest`` LEDs: a ring that many LEDs strong is known already).
 
     Each triple (slots -1, 0, 1, in either direction round the ring) must first lie on a
     circle at three even steps of the N: few LEDs are fitted as a ring seen nearly face on
@@ -236,8 +238,8 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
     for slot, column in ((count - 1, 0), (0, 1), (1, 2)):
         weight[:, slot] = 1.0
         found[:, slot] = triples[:, column]
-    on_arc = _circle_residual(_fit_circles(weight, points[found], circle), weight, points[found], circle) \
-        <= MAX_CIRCLE_RESIDUAL
+    by_slot = points[found]
+    on_arc = _circle_residual(_fit_circles(weight, by_slot, circle), weight, by_slot, circle) <= MAX_CIRCLE_RESIDUAL
     weight, found = weight[on_arc], found[on_arc]
     hypotheses = len(found)
     if not hypotheses:
@@ -298,7 +300,7 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
         seen.add(members)
         starts.append((found[h, slots], slots))
     rings = []
-    for ring in _Refitter(points, blobs, free, count, in_view).refit(starts):
+    for ring in _Refitter(points, blobs, free, count, in_view).refit(starts, fewest):
         if ring is None:
             continue
         coloured = ring.glow_saturation >= COLOURED_GLOW_SATURATION  # False when not told (NaN)
@@ -424,8 +426,8 @@ class _Refitter:
 
     Refits of different hypotheses often converge on the same lights, and a refit that
     has settled fits the same lights again: the model and the lights it matches are kept
-    per (lights, slots), so each is fitted once; the matches of a round are made for all
-    hypotheses at once.
+    per (lights, slots), and which lights are alike per set of lights, so each is worked
+    out once; the matches of a round are made for all hypotheses at once.
     """
 
     def __init__(self, points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, count: int,
@@ -435,18 +437,21 @@ class _Refitter:
         self.radius = np.array([b.radius_px for b in blobs])
         self._fits: dict[tuple[bytes, bytes], tuple[np.ndarray, np.ndarray | None] | None] = {}
         self._matches: dict[tuple[bytes, bytes], tuple[np.ndarray, np.ndarray, int]] = {}
+        self._alike_lights: dict[bytes, np.ndarray] = {}
 
-    def refit(self, starts: list[tuple[np.ndarray, np.ndarray]]) -> list[LedRing | None]:
+    def refit(self, starts: list[tuple[np.ndarray, np.ndarray]], fewest: int = 0) -> list[LedRing | None]:
         """Per start (lights, slots): the ring through the matched lights at their slots,
         re-matched as the model tightens (`_ring_fit`; from 5 LEDs the ring's perspective
         image, so the final residual is the centroids' scatter, not the model's), keeping
         only lights alike in size and brightness. None when the lights stray from the model
         by more than its tolerance, or when fewer than MIN_OCCUPANCY of the LEDs expected in
-        view are left."""
+        view are left, or fewer than ``fewest`` lights."""
         current: list[tuple[np.ndarray, np.ndarray] | None] = list(starts)
         expected = [0] * len(starts)
         fitted: list[tuple[np.ndarray, np.ndarray | None] | None] = [None] * len(starts)
         for rematch in (True, True, False):
+            if not rematch:  # the last round and the ring only drop lights: too few now is too few then
+                current = [None if start is None or len(start[0]) < fewest else start for start in current]
             keys: list[tuple[bytes, bytes] | None] = [None] * len(starts)
             for i, start in enumerate(current):
                 if start is None:
@@ -506,13 +511,17 @@ class _Refitter:
         return self._fits[key]
 
     def _alike(self, lights: np.ndarray, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The lights within ALIKE of the members' median size and brightness."""
+        """The lights within ALIKE of the members' median size and brightness (told once per set of lights)."""
         if len(lights) == 0:
             return lights, slots
-        keep = np.ones(len(lights), bool)
-        for values in (self.radius[lights], self.peak[lights]):
-            median = _median(values)
-            keep &= (values <= ALIKE * median) & (values >= median / ALIKE)
+        key = lights.tobytes()
+        if key not in self._alike_lights:
+            keep = np.ones(len(lights), bool)
+            for values in (self.radius[lights], self.peak[lights]):
+                median = _median(values)
+                keep &= (values <= ALIKE * median) & (values >= median / ALIKE)
+            self._alike_lights[key] = keep
+        keep = self._alike_lights[key]
         return lights[keep], slots[keep]
 
 
