@@ -239,7 +239,8 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
         weight[:, slot] = 1.0
         found[:, slot] = triples[:, column]
     by_slot = points[found]
-    on_arc = _circle_residual(_fit_circles(weight, by_slot, circle), weight, by_slot, circle) <= MAX_CIRCLE_RESIDUAL
+    arcs = _fit_circles(weight, by_slot, circle, _triple_normal(count))
+    on_arc = _circle_residual(arcs, weight, by_slot, circle) <= MAX_CIRCLE_RESIDUAL
     weight, found = weight[on_arc], found[on_arc]
     hypotheses = len(found)
     if not hypotheses:
@@ -369,6 +370,16 @@ def _next(array: np.ndarray, axis: int, step: int = 1) -> np.ndarray:
 
 
 @lru_cache(maxsize=64)
+def _triple_normal(count: int) -> np.ndarray:
+    """The circle fit's normal matrix (1, 4, 4) of lights at slots -1, 0 and 1, every triple's:
+    made once per count (a row's matrix does not depend on the other rows)."""
+    weight = np.zeros((1, count))
+    weight[0, [count - 1, 0, 1]] = 1.0
+    circle = _circle_design(count)
+    return _read_only(np.einsum("hs,sri,srj->hij", weight, circle, circle))
+
+
+@lru_cache(maxsize=64)
 def _circle_design(count: int) -> np.ndarray:
     """(count, 2, 4): the x and y rows of each slot for a circle seen face on, linear in its
     centre and (A, B) = radius * (cos, sin) of its turn: x = cx + A cos - B sin, y = cy + A sin + B cos."""
@@ -384,9 +395,12 @@ def _fit_affine(weight: np.ndarray, points: np.ndarray, design: np.ndarray) -> n
                            np.einsum("hs,si,hsj->hij", weight, design, points))
 
 
-def _fit_circles(weight: np.ndarray, points: np.ndarray, circle: np.ndarray) -> np.ndarray:
-    """Least-squares circles (H, 4) through each hypothesis's lights (``points`` (H, count, 2) by slot)."""
-    normal = np.einsum("hs,sri,srj->hij", weight, circle, circle)
+def _fit_circles(weight: np.ndarray, points: np.ndarray, circle: np.ndarray,
+                 normal: np.ndarray | None = None) -> np.ndarray:
+    """Least-squares circles (H, 4) through each hypothesis's lights (``points`` (H, count, 2) by slot);
+    ``normal``: the normal equations' matrix when known already (it follows from the weights alone)."""
+    if normal is None:
+        normal = np.einsum("hs,sri,srj->hij", weight, circle, circle)
     target = np.einsum("hs,sri,hsr->hi", weight, circle, points)
     return np.linalg.solve(normal + 1e-9 * np.eye(4), target[..., None])[..., 0]
 
