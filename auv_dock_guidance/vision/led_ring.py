@@ -118,12 +118,17 @@ def _best_ring(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, in_vi
     else:
         low, high = _counts_to_try(points, triples)
         by_count = {n: triples[(low <= n) & (n <= high)] for n in range(int(low.min()), int(high.max()) + 1)}
+    # Largest counts first: a ring holds at most one LED per slot, so a count below the best
+    # ring's LEDs cannot beat it and is not tried. Of rings that rank alike, the one of the
+    # smaller count is kept, as trying the counts upwards would keep it.
     best: LedRing | None = None
-    for count, group in by_count.items():
-        if not len(group):
+    for count in sorted(by_count, reverse=True):
+        group = by_count[count]
+        if not len(group) or (best is not None and count < len(best.members)):
             continue
-        for ring in _hypotheses(points, blobs, free, group, count, in_view, led_count is not None):
-            if best is None or _better(ring, best):
+        fewest = len(best.members) if best is not None else 0
+        for ring in _hypotheses(points, blobs, free, group, count, in_view, led_count is not None, fewest):
+            if best is None or _better(ring, best) or (count < best.count and not _better(best, ring)):
                 best = ring
     return best
 
@@ -206,8 +211,9 @@ def _positions(center: np.ndarray, a: np.ndarray, b: np.ndarray, count: int) -> 
 
 
 def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, triples: np.ndarray, count: int,
-                in_view: InView | None, count_known: bool) -> list[LedRing]:
-    """Rings of ``count`` LEDs grown from the triples and confirmed by the lights.
+                in_view: InView | None, count_known: bool, fewest: int = 0) -> list[LedRing]:
+    """Rings of ``count`` LEDs grown from the triples and confirmed by the lights (none of
+    fewer than ``fewest`` LEDs: a ring that many LEDs strong is known already).
 
     Each triple (slots -1, 0, 1, in either direction round the ring) must first lie on a
     circle at three even steps of the N: few LEDs are fitted as a ring seen nearly face on
@@ -233,44 +239,55 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
     for slot, column in ((count - 1, 0), (0, 1), (1, 2)):
         weight[:, slot] = 1.0
         found[:, slot] = triples[:, column]
-    on_arc = _circle_residual(_fit_circles(weight, points[found], circle), weight, points[found], circle) \
-        <= MAX_CIRCLE_RESIDUAL
+    by_slot = points[found]
+    arcs = _fit_circles(weight, by_slot, circle, _triple_normal(count))
+    on_arc = _circle_residual(arcs, weight, by_slot, circle) <= MAX_CIRCLE_RESIDUAL
     weight, found = weight[on_arc], found[on_arc]
     hypotheses = len(found)
     if not hypotheses:
         return []
     free_points = points[index]
-    # Each hypothesis's circle and affine ring, refitted only when it took a light (a row's fit
-    # does not depend on the other rows): most steps most hypotheses find nothing.
+    # Each hypothesis's circle or affine ring is refitted only when it took a light (a row's fit
+    # does not depend on the other rows), and its slots predicted once per fit. Most steps no
+    # hypothesis finds anything: the steps up to the next one where some hypothesis takes a
+    # light are matched in one batch, and growth goes on after it.
     circles, affine = np.zeros((hypotheses, 4)), np.zeros((hypotheses, 3, 2))
+    predicted = np.zeros((hypotheses, count, 2))
+    visits, before, distance_end = _growth_steps(count)
+    spacing = np.zeros((hypotheses, len(visits)))
     stale = np.ones(hypotheses, bool)
     sizes = np.count_nonzero(weight, axis=1)  # lights each hypothesis holds...
     untaken = ~(found[:, :, None] == index[None, None, :]).any(axis=1)  # ...and (H, F) those it does not
-    every = np.arange(hypotheses)
-    for distance in range(2, count // 2 + 1):
-        few = sizes < 4
-        if stale.any():
+    step = 0
+    while step < len(visits):
+        if stale.any() and (step == 0 or distance_end[step - 1] == step):  # refits wait for the next distance
+            few = sizes < 4
             if (rows := stale & few).any():
                 circles[rows] = _fit_circles(weight[rows], points[np.maximum(found[rows], 0)], circle)
             if (rows := stale & ~few).any():
                 affine[rows] = _fit_affine(weight[rows], points[np.maximum(found[rows], 0)], design)
+            predicted[stale] = _slot_predictions(few[stale], circles[stale], affine[stale], circle, design)
+            spacing[stale] = _distance(predicted[stale][:, visits], predicted[stale][:, before])
             stale[:] = False
-        models = (few, circles if few.any() else None, None if few.all() else affine)
-        sides = ((distance % count, distance - 1), ((-distance) % count, (1 - distance) % count))
-        for slot, previous in sides[: 1 if 2 * distance == count else 2]:
-            predicted = _predict(slot, models, circle, design)  # (H, 2)
-            spacing = _norm(predicted - _predict(previous, models, circle, design))
-            gap = _norm(predicted[:, None, :] - free_points[None, :, :])  # (H, F)
-            within = untaken & (gap <= MATCH_TOLERANCE * spacing[:, None])
-            brightest = np.argmax(np.where(within, light, -1.0), axis=1)
-            hit = within[every, brightest] & (found[:, slot] < 0)
-            if hit.any():
-                took = brightest[hit]
-                found[hit, slot] = index[took]
-                weight[hit, slot] = 1.0
-                untaken[hit, took] = False
-                stale |= hit
-                sizes += hit
+        end = distance_end[step] if stale.any() else len(visits)
+        gap = _distance(predicted[:, visits[step:end], None, :], free_points)  # (H, steps, F)
+        within = untaken[:, None, :] & (gap <= MATCH_TOLERANCE * spacing[:, step:end, None])
+        brightest = np.argmax(np.where(within, light, -1.0), axis=2)  # (H, steps)
+        hit = np.take_along_axis(within, brightest[:, :, None], axis=2)[:, :, 0] & (found[:, visits[step:end]] < 0)
+        taking = np.flatnonzero(hit.any(axis=0))
+        if not len(taking):
+            step = end
+            continue
+        first = int(taking[0])
+        hit = hit[:, first]
+        took = brightest[hit, first]
+        step += first
+        found[hit, visits[step]] = index[took]
+        weight[hit, visits[step]] = 1.0
+        untaken[hit, took] = False
+        stale |= hit
+        sizes += hit
+        step += 1
     minimum = MIN_LEDS_KNOWN_COUNT if count_known else MIN_COLOURED_LEDS_UNKNOWN_COUNT
     sizes = (found >= 0).sum(axis=1)
     seen: set[tuple[int, ...]] = set()
@@ -285,7 +302,7 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
         seen.add(members)
         starts.append((found[h, slots], slots))
     rings = []
-    for ring in _Refitter(points, blobs, free, count, in_view).refit(starts):
+    for ring in _Refitter(points, blobs, free, count, in_view).refit(starts, fewest):
         if ring is None:
             continue
         coloured = ring.glow_saturation >= COLOURED_GLOW_SATURATION  # False when not told (NaN)
@@ -295,16 +312,29 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
     return rings
 
 
-def _predict(slot: int, models: tuple[np.ndarray, np.ndarray | None, np.ndarray | None], circle: np.ndarray,
-             design: np.ndarray) -> np.ndarray:
-    """Where each hypothesis puts a slot (H, 2): its circle while it has few LEDs, else its affine ring
-    (``models``: which have few, and the circles and affine rings, each None where no hypothesis needs it)."""
-    few, circles, affine = models
-    if circles is None:
-        assert affine is not None
-        return design[slot] @ affine
-    on_circle = np.einsum("ri,hi->hr", circle[slot], circles)
-    return on_circle if affine is None else np.where(few[:, None], on_circle, design[slot] @ affine)
+def _slot_predictions(few: np.ndarray, circles: np.ndarray, affine: np.ndarray, circle: np.ndarray,
+                      design: np.ndarray) -> np.ndarray:
+    """Where each hypothesis puts every slot (H, count, 2): its circle while it has few LEDs
+    (``few``), else its affine ring. Each slot is predicted as on its own (a (1, 3) row times
+    the affine ring; the circle's contraction per slot), so the numbers are those of one slot at a time."""
+    on_affine = np.matmul(design[None, :, None, :], affine[:, None, :, :])[:, :, 0, :]
+    return np.where(few[:, None, None], np.einsum("sri,hi->hsr", circle, circles), on_affine)
+
+
+@lru_cache(maxsize=64)
+def _growth_steps(count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The slots growth visits, in order (one step further out on each side in turn), the slot
+    before each on its side, and the index of the step after each step's distance."""
+    visits: list[int] = []
+    before: list[int] = []
+    distance_end: list[int] = []
+    for distance in range(2, count // 2 + 1):
+        sides = [(distance % count, distance - 1), ((-distance) % count, (1 - distance) % count)]
+        for slot, previous in sides[: 1 if 2 * distance == count else 2]:
+            visits.append(slot)
+            before.append(previous)
+        distance_end += [len(visits)] * (len(visits) - len(distance_end))
+    return _read_only(np.array(visits)), _read_only(np.array(before)), _read_only(np.array(distance_end))
 
 
 @lru_cache(maxsize=64)
@@ -325,9 +355,12 @@ def _read_only(array: np.ndarray) -> np.ndarray:
     return array
 
 
-def _norm(vectors: np.ndarray) -> np.ndarray:
-    """Lengths of 2-D vectors along the last axis: np.linalg.norm(axis=-1) to the bit, without its overhead."""
-    return np.sqrt(np.add.reduce(vectors * vectors, axis=-1))
+def _distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distances between 2-D points along the last axis (broadcast): np.linalg.norm(a - b, axis=-1)
+    to the bit, without its overhead nor the differences' array of pairs."""
+    dx = a[..., 0] - b[..., 0]
+    dy = a[..., 1] - b[..., 1]
+    return np.sqrt(dx * dx + dy * dy)
 
 
 def _next(array: np.ndarray, axis: int, step: int = 1) -> np.ndarray:
@@ -335,6 +368,16 @@ def _next(array: np.ndarray, axis: int, step: int = 1) -> np.ndarray:
     later, first = [slice(None)] * array.ndim, [slice(None)] * array.ndim
     later[axis], first[axis] = slice(step, None), slice(None, step)
     return np.concatenate([array[tuple(later)], array[tuple(first)]], axis=axis)
+
+
+@lru_cache(maxsize=64)
+def _triple_normal(count: int) -> np.ndarray:
+    """The circle fit's normal matrix (1, 4, 4) of lights at slots -1, 0 and 1, every triple's:
+    made once per count (a row's matrix does not depend on the other rows)."""
+    weight = np.zeros((1, count))
+    weight[0, [count - 1, 0, 1]] = 1.0
+    circle = _circle_design(count)
+    return _read_only(np.einsum("hs,sri,srj->hij", weight, circle, circle))
 
 
 @lru_cache(maxsize=64)
@@ -353,9 +396,12 @@ def _fit_affine(weight: np.ndarray, points: np.ndarray, design: np.ndarray) -> n
                            np.einsum("hs,si,hsj->hij", weight, design, points))
 
 
-def _fit_circles(weight: np.ndarray, points: np.ndarray, circle: np.ndarray) -> np.ndarray:
-    """Least-squares circles (H, 4) through each hypothesis's lights (``points`` (H, count, 2) by slot)."""
-    normal = np.einsum("hs,sri,srj->hij", weight, circle, circle)
+def _fit_circles(weight: np.ndarray, points: np.ndarray, circle: np.ndarray,
+                 normal: np.ndarray | None = None) -> np.ndarray:
+    """Least-squares circles (H, 4) through each hypothesis's lights (``points`` (H, count, 2) by slot);
+    ``normal``: the normal equations' matrix when known already (it follows from the weights alone)."""
+    if normal is None:
+        normal = np.einsum("hs,sri,srj->hij", weight, circle, circle)
     target = np.einsum("hs,sri,hsr->hi", weight, circle, points)
     return np.linalg.solve(normal + 1e-9 * np.eye(4), target[..., None])[..., 0]
 
@@ -373,10 +419,10 @@ def _match_positions(points: np.ndarray, light: np.ndarray, free: np.ndarray, pr
                      tolerance: float, in_view: InView | None) -> list[tuple[np.ndarray, np.ndarray, int]]:
     """Per hypothesis (predicted slot positions (H, count, 2)): the brightest light within
     ``tolerance`` of the local spacing of each slot, their slots, and the slots expected in view."""
-    spacing = _norm(_next(predicted, 1) - predicted)
+    spacing = _distance(_next(predicted, 1), predicted)
     local = np.minimum(spacing, _next(spacing, 1, spacing.shape[1] - 1))  # (H, count): the smaller of both sides
     index = np.flatnonzero(free)
-    gap = _norm(predicted[:, :, None, :] - points[index][None, None, :, :])  # (H, count, F)
+    gap = _distance(predicted[:, :, None, :], points[index])  # (H, count, F)
     within = gap <= tolerance * local[:, :, None]
     nearest = np.argmax(np.where(within, light[index][None, None, :], -1.0), axis=2)
     found = np.take_along_axis(within, nearest[:, :, None], axis=2)[:, :, 0]
@@ -395,8 +441,8 @@ class _Refitter:
 
     Refits of different hypotheses often converge on the same lights, and a refit that
     has settled fits the same lights again: the model and the lights it matches are kept
-    per (lights, slots), so each is fitted once; the matches of a round are made for all
-    hypotheses at once.
+    per (lights, slots), and which lights are alike per set of lights, so each is worked
+    out once; the matches of a round are made for all hypotheses at once.
     """
 
     def __init__(self, points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, count: int,
@@ -407,18 +453,21 @@ class _Refitter:
         self.on_outline = np.array([b.on_outline for b in blobs], bool)
         self._fits: dict[tuple[bytes, bytes], tuple[np.ndarray, np.ndarray | None] | None] = {}
         self._matches: dict[tuple[bytes, bytes], tuple[np.ndarray, np.ndarray, int]] = {}
+        self._alike_lights: dict[bytes, np.ndarray] = {}
 
-    def refit(self, starts: list[tuple[np.ndarray, np.ndarray]]) -> list[LedRing | None]:
+    def refit(self, starts: list[tuple[np.ndarray, np.ndarray]], fewest: int = 0) -> list[LedRing | None]:
         """Per start (lights, slots): the ring through the matched lights at their slots,
         re-matched as the model tightens (`_ring_fit`; from 5 LEDs the ring's perspective
         image, so the final residual is the centroids' scatter, not the model's), keeping
         only lights alike in size and brightness. None when the lights stray from the model
         by more than its tolerance, or when fewer than MIN_OCCUPANCY of the LEDs expected in
-        view are left."""
+        view are left, or fewer than ``fewest`` lights."""
         current: list[tuple[np.ndarray, np.ndarray] | None] = list(starts)
         expected = [0] * len(starts)
         fitted: list[tuple[np.ndarray, np.ndarray | None] | None] = [None] * len(starts)
         for rematch in (True, True, False):
+            if not rematch:  # the last round and the ring only drop lights: too few now is too few then
+                current = [None if start is None or len(start[0]) < fewest else start for start in current]
             keys: list[tuple[bytes, bytes] | None] = [None] * len(starts)
             for i, start in enumerate(current):
                 if start is None:
@@ -452,7 +501,7 @@ class _Refitter:
             return None
         model, homography = fitted
         points = self.points[lights]
-        spacing = float(np.mean(_norm(_next(model, 0) - model)))
+        spacing = float(np.mean(_distance(_next(model, 0), model)))
         if spacing > MAX_SPACING_SIZES * _median(self.radius[lights]) and not self.on_outline[lights].all():
             return None
         residual = float(np.sqrt(np.mean(np.sum((points - model[slots]) ** 2, axis=1)))) / max(spacing, 1e-9)
@@ -478,13 +527,17 @@ class _Refitter:
         return self._fits[key]
 
     def _alike(self, lights: np.ndarray, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The lights within ALIKE of the members' median size and brightness."""
+        """The lights within ALIKE of the members' median size and brightness (told once per set of lights)."""
         if len(lights) == 0:
             return lights, slots
-        keep = np.ones(len(lights), bool)
-        for values in (self.radius[lights], self.peak[lights]):
-            median = _median(values)
-            keep &= (values <= ALIKE * median) & (values >= median / ALIKE)
+        key = lights.tobytes()
+        if key not in self._alike_lights:
+            keep = np.ones(len(lights), bool)
+            for values in (self.radius[lights], self.peak[lights]):
+                median = _median(values)
+                keep &= (values <= ALIKE * median) & (values >= median / ALIKE)
+            self._alike_lights[key] = keep
+        keep = self._alike_lights[key]
         return lights[keep], slots[keep]
 
 

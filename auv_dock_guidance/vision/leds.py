@@ -238,8 +238,7 @@ def _glow(image: np.ndarray, u: float, v: float, radius: float, water_bgr: np.nd
     r = max(2.0, radius)
     x0, x1 = max(0, int(u - _GLOW_OUTER * r)), min(w, int(u + _GLOW_OUTER * r) + 1)
     y0, y1 = max(0, int(v - _GLOW_OUTER * r)), min(h, int(v + _GLOW_OUTER * r) + 1)
-    yy, xx = np.mgrid[y0:y1, x0:x1]
-    distance = np.hypot(xx - u, yy - v)
+    distance = np.hypot(np.arange(x0, x1)[None, :] - u, np.arange(y0, y1)[:, None] - v)
     annulus = image[y0:y1, x0:x1][(distance >= _GLOW_INNER * r) & (distance <= _GLOW_OUTER * r)].astype(np.float64)
     if len(annulus) == 0:
         return 0.0, 0.0, 0.0
@@ -283,10 +282,10 @@ def _centroid(image: np.ndarray, u: float, v: float, radius: float) -> tuple[flo
         return u, v
     floor, top = float(patch.min()), float(patch.max())
     weight = np.clip(patch - (floor + 0.5 * (top - floor)), 0.0, None)
-    yy, xx = np.mgrid[y0:y1, x0:x1]
-    inside = (xx - u) ** 2 + (yy - v) ** 2 <= reach * reach
+    xs, ys = np.arange(x0, x1)[None, :], np.arange(y0, y1)[:, None]
+    inside = (xs - u) ** 2 + (ys - v) ** 2 <= reach * reach
     weight *= inside
     total = float(weight.sum())
     if total <= 0:
         return u, v
-    return float((weight * xx).sum() / total), float((weight * yy).sum() / total)
+    return float((weight * xs).sum() / total), float((weight * ys).sum() / total)
