@@ -9,9 +9,9 @@ States:
 * TERMINAL: close range (below ``terminal_range_m`` in ``terminal_confirm_frames``
   detections in a row: one wild detection far out must not end the approach). The ring
   fills the frame or leaves it, so a lost marker is expected: the last good attitude goal
-  is held, turns stay rate limited, and the vehicle keeps going at terminal speed. Detections closer than
-  ``blind_range_m`` or jumping more than ``terminal_max_bearing_jump_rad`` from the last
-  good one (a partial ring) are not acted on. Lost while still farther than
+  is held, turns stay rate limited, and the vehicle keeps going at terminal speed.
+  Detections closer than ``blind_range_m`` or jumping more than
+  ``terminal_max_bearing_jump_rad`` from the last good one (a partial ring) are not acted on. Lost while still farther than
   ``blind_range_m`` (where it should be in view) for ``terminal_lost_timeout_s``: ABORT.
   No detection at all for ``terminal_blind_timeout_s``: ABORT (the blind run should be
   over by then, whatever the speed).
