@@ -11,8 +11,9 @@ States:
   fills the frame or leaves it, so a lost marker is expected: the last good attitude goal
   is held, turns stay rate limited, and the vehicle keeps going at terminal speed.
   Detections closer than ``blind_range_m`` or jumping more than
-  ``terminal_max_bearing_jump_rad`` from the last good one (a partial ring) are not acted on. Lost while still farther than
-  ``blind_range_m`` (where it should be in view) for ``terminal_lost_timeout_s``: ABORT.
+  ``terminal_max_bearing_jump_rad`` from the last good one (a partial ring) are not acted on.
+  Lost while still farther than ``blind_range_m`` (where it should be in view) for
+  ``terminal_lost_timeout_s``: ABORT.
   No detection at all for ``terminal_blind_timeout_s``: ABORT (the blind run should be
   over by then, whatever the speed).
 * TRACK may sidestep (``Plan.sidestep``): back off sideways in reverse, the dock in view,
