@@ -75,6 +75,7 @@ class RingObservation:
     visible_arc_deg: float = 360.0  # less when the frame cuts the ring
     approximate_camera: bool = False  # focal length and principal point guessed, not calibrated
     image_width_px: int = 0  # for the principal point's uncertainty of an approximate camera
+    tilt_disputed: bool = False  # the ring's tilt is not to be trusted (LEDs assembled with the wrong count)
 
 
 class RingFit(Protocol):
@@ -92,6 +93,8 @@ class RingFit(Protocol):
     def visible_arc_deg(self) -> float: ...
     @property
     def range_approximate(self) -> bool: ...
+    @property
+    def count_disputed(self) -> bool: ...
 
 
 def observation_of(fit: RingFit, marker_radius_m: float, focal_px: float,
@@ -105,6 +108,7 @@ def observation_of(fit: RingFit, marker_radius_m: float, focal_px: float,
         center_m=(pose.offset_x_m, pose.offset_y_m, pose.range_m), marker_radius_m=marker_radius_m,
         focal_px=focal_px, fit_sigma=fit.fit_sigma, ellipse=fit.ellipse, ring_normal=fit.ring_normal,
         visible_arc_deg=fit.visible_arc_deg, approximate_camera=fit.range_approximate, image_width_px=image_width_px,
+        tilt_disputed=fit.count_disputed,
     )
 
 
@@ -251,6 +255,8 @@ def _axis(observation: RingObservation, position_cov: np.ndarray,
     ellipse = observation.ellipse
     ratio_sigma = _ratio_sigma(observation, radius_n)
     whole = ellipse is not None and observation.visible_arc_deg >= 360.0 and math.isfinite(ratio_sigma)
+    if observation.tilt_disputed:
+        return None, UNKNOWN_VARIANCE, position_cov
     if observation.ring_normal is not None and whole:
         axis = np.asarray(observation.ring_normal, dtype=float)
         spread_variance = 0.0

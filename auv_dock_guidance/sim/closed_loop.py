@@ -311,8 +311,8 @@ def ring_axis(detection: Detection, world: PoolWorld, camera: CameraModel
         candidates = circles_from_ellipse(detection.ellipse, world.entrance_radius_m)
         normal = tuple(float(v) for v in candidates[0].normal) if candidates else None  # type: ignore[assignment]
     observation = observation_of(detection, world.entrance_radius_m, camera.focal_px, camera.width)
-    if normal is None or observation is None or observation.visible_arc_deg < 360.0:
-        return None, None  # a ring cut by the frame: dock/pose reports no axis either
+    if normal is None or observation is None or observation.visible_arc_deg < 360.0 or observation.tilt_disputed:
+        return None, None  # a ring cut by the frame or of the wrong LED count: dock/pose reports no axis either
     return normal, tilt_sigma_rad(observation, normal)
 
 

@@ -26,6 +26,7 @@ from auv_dock_guidance.vision.detection import Detection
 from auv_dock_guidance.vision.edges import BilateralParams
 from auv_dock_guidance.vision.fit import fit_region
 from auv_dock_guidance.vision.image_input import as_bgr_or_gray8
+from auv_dock_guidance.vision.led_count import LedCountVote
 from auv_dock_guidance.vision.led_fit import FrameView, LedRingCandidate, find_led_rings, led_detection
 from auv_dock_guidance.vision.refine import Refiner, Region, add_region
 from auv_dock_guidance.vision.search import Window, search, search_copy
@@ -39,7 +40,8 @@ _RESOLVED_SPACING_PX = 4.0  # LEDs closer than this on the search copy cannot be
 
 
 class Detector:
-    """Stateful across the frames of one sequence (the adaptive threshold); call reset() between."""
+    """Stateful across the frames of one sequence (the adaptive threshold, the tracked window, the
+    dock's LED count when not given); call reset() between."""
 
     def __init__(self, camera: CameraModel | None = None, config: DetectorConfig = DetectorConfig(),
                  lens: ApproximateLens | None = None) -> None:
@@ -52,6 +54,7 @@ class Detector:
         self._spread = SpreadSearch()  # the whole frame's search while tracking, a slice per frame
         self._view: FrameView | None = None  # the last whole frame's picture area and water, for windows
         self._frames = 0
+        self.led_counts = LedCountVote()  # used only when the config gives no count
 
     def reset(self) -> None:
         self.threshold.reset()
@@ -60,6 +63,7 @@ class Detector:
         self._view = None
         self._last = None
         self._frames = 0
+        self.led_counts.reset()
 
     def detect(self, image: np.ndarray, stamp_s: float | None = None) -> Detection:
         """The marker in one frame; ``stamp_s`` (the frame's time) lets tracking allow for
@@ -86,7 +90,17 @@ class Detector:
             windows = search(image, self.config, self._lens_scale, self._min_radius_px, copy)
             detection = self._detect_in(image, windows, self._led_rings(image, copy))
         self._remember(detection, time_s)
-        return detection
+        return self._counted(detection)
+
+    def _counted(self, detection: Detection) -> Detection:
+        """A whole ring of LEDs votes for the dock's count (when it is not given); one of another count
+        than the dock's is marked (``count_disputed``)."""
+        if self.config.led_count is not None or not detection.led_count or detection.visible_arc_deg < 360.0:
+            return detection
+        self.led_counts.add(detection.led_count)
+        if not self.led_counts.disputes(detection.led_count):
+            return detection
+        return dataclasses.replace(detection, count_disputed=True)
 
     def fit_camera(self, width: int, height: int) -> str | None:
         """Follow images that are a uniform resize of the camera model (binned, scaled down
