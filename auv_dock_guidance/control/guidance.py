@@ -23,7 +23,8 @@ States:
   (in reverse with the nose on the dock, or turned round and blind on the track where
   reversing there would lose the dock from view), face the dock, and TRACK again once it
   is seen. Without a detection for ``retry_blind_timeout_s``: SEARCH. More than
-  ``max_retries``: ABORT.
+  ``max_retries``: ABORT, unless the last try's predicted miss is within
+  ``last_try_tolerance_m`` (clear of the rim, if with less margin): then it goes in.
 * DOCKED: the main controller reports the latch, or in TERMINAL the dead-reckoned run
   since the last sighting covers the last range plus a margin (on the approach path: the
   tracked nose, own motion and drift, is that margin past the entrance).
@@ -99,7 +100,8 @@ class GuidanceConfig:
     max_pitch_rad: float = math.radians(40)
     velocity_steering: bool = True  # track the dock in the level frame, estimate the current, crab into it
     axis_alignment: bool = True  # line up with the dock's axis (from the ring normals) before the entry
-    max_retries: int = 3  # backing off this many times and still missing: ABORT
+    max_retries: int = 3  # backing off this many times and still missing: ABORT...
+    last_try_tolerance_m: float = 0.18  # ...unless the predicted miss is within this (clear of the rim): go in
     retry_blind_timeout_s: float = 40.0  # RETRY without a detection this long (turned round to get back) -> SEARCH
     speed_time_constant_s: float = 1.0  # how fast the vehicle's speed through the water follows its thrust
     cascade: CascadeConfig = field(default_factory=CascadeConfig)
@@ -114,6 +116,7 @@ class GuidanceConfig:
             self.terminal_blind_timeout_s, self.retry_blind_timeout_s,
             self.telemetry_timeout_s, self.detection_max_age_s, self.max_roll_rad, self.max_pitch_rad,
             self.blind_range_m, self.camera_timeout_s, self.recovery_s, self.speed_time_constant_s,
+            self.last_try_tolerance_m,
         )
         if not all(math.isfinite(v) and v > 0 for v in positive) or min(
                 self.confirm_frames, self.terminal_confirm_frames) < 1 or self.dock_margin_m < 0:
@@ -373,6 +376,14 @@ class Guidance:
             return f"stamped {when} (limit {limit} s either way)"
         return self._target_gate.admit(target.stamp_s)
 
+    def _last_try_goes_in(self, plan: Plan) -> bool:
+        """With no retry left, an entry predicted off the centre but clear of the rim goes ahead: the
+        tolerance that sends the vehicle back for a better line is a margin, and an ABORT ends the docking."""
+        c = self.config
+        tolerance = c.last_try_tolerance_m
+        return self.retries >= c.max_retries and plan.predicted_miss_m is not None \
+            and abs(plan.predicted_miss_m) <= tolerance and (plan.depth_left_m or 0.0) <= tolerance
+
     def _next_state(
         self, now_s: float, target: Target | None, attitude: Attitude | None, docked_signal: bool,
         plan: Plan | None = None,
@@ -394,7 +405,8 @@ class Guidance:
         if previous is State.ABORT:
             return self._maybe_recover(now_s, attitude)
         driving = (State.TRACK, State.TERMINAL, State.RETRY)
-        would_miss = plan is not None and plan.verdict is Verdict.WOULD_MISS and lost_for <= c.track_lost_timeout_s
+        would_miss = plan is not None and plan.verdict is Verdict.WOULD_MISS and lost_for <= c.track_lost_timeout_s \
+            and not self._last_try_goes_in(plan)
         if attitude is None:
             if previous in driving:
                 new_state, reason = State.ABORT, "telemetry from the main controller is stale or invalid"

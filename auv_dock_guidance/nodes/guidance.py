@@ -84,6 +84,8 @@ PARAMS = [
     Param("velocity_steering", True, "track the dock in the level frame and crab into the estimated current"),
     Param("axis_alignment", True, "line up with the dock's axis (the orientation on dock/pose) before the entry"),
     Param("max_retries", 3, "back off and retry this often when the entry would miss, then abort", 0, 20),
+    Param("last_try_tolerance_m", 0.18, "with no retry left, go in if the predicted miss is within this (m)",
+          0.01, 1.0),
     Param("retry_blind_timeout_s", 40.0, "backing off (perhaps turned round) without a detection this long: search (s)",
           1.0, 600.0),
     Param("max_speed_mps", 0.9, "fastest approach through the water, used against a cross current (m/s)", 0.1, 5.0),
@@ -105,7 +107,7 @@ def guidance_config(v: dict[str, Any], mixer: MixerConfig, camera_ahead_m: float
                               sidestep=v["sidestep"])
     return GuidanceConfig(
         velocity_steering=v["velocity_steering"], axis_alignment=v["axis_alignment"], max_retries=v["max_retries"],
-        retry_blind_timeout_s=v["retry_blind_timeout_s"],
+        last_try_tolerance_m=v["last_try_tolerance_m"], retry_blind_timeout_s=v["retry_blind_timeout_s"],
         approach=approach, tracker=TrackerConfig(camera_ahead_m=camera_ahead_m),
         confirm_frames=v["confirm_frames"], terminal_range_m=v["terminal_range_m"], blind_range_m=v["blind_range_m"],
         track_lost_timeout_s=v["track_lost_timeout_s"], terminal_lost_timeout_s=v["terminal_lost_timeout_s"],

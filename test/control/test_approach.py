@@ -318,3 +318,19 @@ def test_an_axis_seen_from_one_viewpoint_is_not_known_however_consistent():
         target = sighting((-10.0, 4.0), -0.38, i * 0.1)
         axis.observe(target, target.axis_optical, Attitude(i * 0.1, 0, 0, -0.38))
     assert not axis.estimate().known
+
+
+def test_with_no_retry_left_an_entry_clear_of_the_rim_goes_ahead():
+    """0.6 m off the axis 3.4 m out: the entry is predicted 0.17 m off the centre, beyond the margin that
+    sends the vehicle back, but clear of the rim (entrance 0.35 m less the hull's 0.12 m)."""
+    def last_try(tolerance_m):
+        auv = KinematicAuv((-3.4, 0.6), 0.0, (0.0, 0.0))
+        auv.speed = 0.3
+        out = fly(Guidance(GuidanceConfig(max_retries=0, last_try_tolerance_m=tolerance_m)), auv, seconds=40.0)
+        return out, auv
+
+    out, auv = last_try(GuidanceConfig().last_try_tolerance_m)
+    assert out.state is not State.ABORT, out.transition
+    assert abs(auv.nose[1]) < 0.35 - 0.12
+    out, _ = last_try(0.1)
+    assert out.state is State.ABORT and "would miss" in out.transition.reason
