@@ -34,7 +34,10 @@ on the line further out. Where that point cannot be reached so (reversing there 
 turn the dock out of view: far round the dock or in a strong cross current, where the
 reverse pass ended metres off the line and the next approach failed the same way), the
 vehicle turns round and drives to it blind on the track (own motion and the current
-estimate), then turns to face the dock again.
+estimate), then turns to face the dock again. The first sightings then correct the track:
+when they put the nose more than ``refound_gap_m`` off the line (the dead reckoning drifted),
+it goes to the point again (at most ``max_back_off_legs`` legs), since an approach begun
+metres beside the line misses the same way.
 """
 
 from __future__ import annotations
@@ -92,7 +95,9 @@ class ApproachConfig:
     reposition_speed_mps: float = 0.7  # ...: turn round and drive blind at this speed over ground...
     reposition_to_m: float = 12.0  # ...to a point this far out on the line (a long final on the known axis)
     reposition_from_m: float = 4.0  # ...but not closer than this along the axis (the turn must clear the dock)
-    facing_deg: float = 10.0  # back at the point, the nose this close to the dock: backed off
+    facing_deg: float = 10.0  # back at the point, the nose this close to the dock: backed off...
+    refound_gap_m: float = 1.5  # ...unless the dock seen again puts the nose this far off the line: go again...
+    max_back_off_legs: int = 3  # ...at most this many times per back-off
     settle_m: float = 4.0  # on the approach line by this far out
     sidestep: bool = False  # back off sideways when the line is out of reach (else: approach, retry if it would miss)
     sidestep_shortfall_deg: float = 3.0  # sidestep when reaching the line in view falls short by more than this...
@@ -172,6 +177,7 @@ class ApproachPlanner:
     def reset(self) -> None:
         self._sidestepping = False
         self._back_off_phase = _BackOff.REVERSE
+        self._back_off_legs = 0  # legs to the back-off point (the dock seen again may send it back)
 
     def plan(self, s: Situation, backing_off: bool, predict_entry: bool = True) -> Plan:
         """Heading and speed now; ``predict_entry`` also checks the crossing (when new information came)."""
@@ -181,6 +187,7 @@ class ApproachPlanner:
             self._sidestepping = False
             return self._back_off(s, geometry)
         self._back_off_phase = _BackOff.REVERSE
+        self._back_off_legs = 0
         shortfall = self._shortfall(s, geometry)
         if shortfall is None:
             self._sidestepping = False
@@ -378,10 +385,17 @@ class ApproachPlanner:
             goal = (goal[0] - turning_s * s.current_mps[0], goal[1] - turning_s * s.current_mps[1])
         to_goal = (goal[0] - g.nose[0], goal[1] - g.nose[1])
         gap = math.hypot(*to_goal)
-        if gap < 1.0:
+        if gap < 1.0 and self._back_off_phase is not _BackOff.FACE:
             self._back_off_phase = _BackOff.FACE
+            self._back_off_legs += 1
         if self._back_off_phase is _BackOff.FACE:  # hold against the current along the nose while turning
             facing = abs(wrap_angle(s.heading_rad - g.sight)) < math.radians(c.facing_deg)
+            off_line = abs(_dot(g.nose, _unit(g.line_yaw + math.pi / 2)))
+            if facing and off_line > c.refound_gap_m and self._back_off_legs < c.max_back_off_legs:
+                # The dock seen again moved the track: the blind leg's dead reckoning drifted off the line
+                # (a retry begun metres beside it misses the same way). Go to the point again.
+                self._back_off_phase = _BackOff.REVERSE
+                return self._back_off(s, g)
             return Plan(wrap_angle(g.sight), -_dot(s.current_mps, _unit(g.sight)),
                         Verdict.BACKED_OFF if facing else Verdict.GO, g.along, g.cross, None, blind=not facing)
         ground = min(c.reposition_speed_mps if blind else c.back_off_speed_mps, 0.5 * gap)

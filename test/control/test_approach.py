@@ -334,3 +334,24 @@ def test_with_no_retry_left_an_entry_clear_of_the_rim_goes_ahead():
     assert abs(auv.nose[1]) < 0.35 - 0.12
     out, _ = last_try(0.1)
     assert out.state is State.ABORT and "would miss" in out.transition.reason
+
+
+def test_a_back_off_point_the_dock_seen_again_puts_metres_off_the_line_is_gone_to_again():
+    """After a blind leg the first sightings correct the dead-reckoned track: a vehicle that thought
+    itself at the point may be metres beside the line, and an approach from there misses again."""
+    def facing_from(nose):
+        heading = math.atan2(-nose[1], -nose[0])
+        position = (nose[0] - AHEAD * math.cos(heading), nose[1] - AHEAD * math.sin(heading))
+        return Situation(position, (0.0, 0.0), heading, 0.0, 0.0, AHEAD, 0.3, axis_known=True)
+
+    def faced_after_the_track_moved(nose, config=ApproachConfig()):
+        planner = ApproachPlanner(config)
+        out = config.back_off_to_m
+        assert planner.plan(facing_from((-out, 0.0)), backing_off=True).verdict is Verdict.BACKED_OFF  # reached
+        return planner.plan(facing_from(nose), backing_off=True)
+
+    out = ApproachConfig().back_off_to_m
+    assert faced_after_the_track_moved((-out, 0.5)).verdict is Verdict.BACKED_OFF  # near enough the line
+    assert faced_after_the_track_moved((-out, 2.0)).verdict is Verdict.GO  # 2 m off it: to the point again
+    one_leg = ApproachConfig(max_back_off_legs=1)  # the last leg's point stands wherever the track moves it
+    assert faced_after_the_track_moved((-out, 2.0), one_leg).verdict is Verdict.BACKED_OFF
