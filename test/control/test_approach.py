@@ -101,6 +101,20 @@ def test_the_axis_is_told_from_its_mirror_once_the_view_moves():
     assert estimate.known and abs(estimate.yaw_rad) < math.radians(1)
 
 
+def test_views_biased_beyond_their_own_sigma_do_not_take_turns_as_the_axis():
+    """Blocks of views 6 deg either side of the axis, each claiming 0.7 deg (a lit funnel's shaded outline
+    biases them alike): the estimate stays between the blocks, with a sigma that owns the scatter."""
+    axis = AxisEstimator()
+    for i in range(60):
+        t, bias = 0.1 * i, math.radians(6.0 if (i // 10) % 2 == 0 else -6.0)
+        target = replace(sighting((-10.0 + 0.05 * i, 1.0), 0.0, t, axis_yaw=bias), axis_sigma_rad=math.radians(0.7))
+        axis.observe(target, target.axis_optical, Attitude(t, 0.0, 0.0, 0.0))
+        estimate = axis.estimate()
+        if i >= 20:
+            assert abs(estimate.yaw_rad) < math.radians(4.0)
+            assert estimate.sigma_rad > math.radians(1.0)
+
+
 def test_close_in_a_cross_current_beyond_the_limit_the_heading_stays_within_it_at_full_speed():
     planner = ApproachPlanner()
     c = planner.config
