@@ -474,7 +474,9 @@ class _Refitter:
                     continue
                 lights, slots = self._alike(*start)
                 key = (lights.tobytes(), slots.tobytes())
-                fitted[i] = self._fit(key, lights, slots) if len(lights) >= 3 else None
+                # The last round fits only the lights that fill enough of the slots in view to be a ring.
+                enough = len(lights) >= 3 and (rematch or len(lights) / max(1, expected[i]) >= MIN_OCCUPANCY)
+                fitted[i] = self._fit(key, lights, slots) if enough else None
                 current[i], keys[i] = ((lights, slots), key) if fitted[i] is not None else (None, None)
             if rematch:
                 self._match([(told, fit[0]) for told, fit in zip(keys, fitted, strict=True)
@@ -496,9 +498,7 @@ class _Refitter:
 
     def _ring(self, lights: np.ndarray, slots: np.ndarray, expected: int,
               fitted: tuple[np.ndarray, np.ndarray | None]) -> LedRing | None:
-        """The ring of a finished refit, or None (see `refit`)."""
-        if len(lights) / max(1, expected) < MIN_OCCUPANCY:  # the last round only drops lights
-            return None
+        """The ring of a finished refit (enough of the slots filled), or None (see `refit`)."""
         model, homography = fitted
         points = self.points[lights]
         spacing = float(np.mean(_distance(_next(model, 0), model)))
