@@ -36,6 +36,7 @@ import cv2
 import numpy as np
 
 from auv_dock_guidance.vision.components import components
+from auv_dock_guidance.vision.levels import median, median_and_mad
 
 _SCALES = np.array([1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0])  # box half widths tried, search-copy pixels
 _RESPONSE_SIGMAS = 5.0  # a blob's centre-surround contrast must stand this many noise deviations clear
@@ -96,9 +97,8 @@ def find_leds(small: np.ndarray, scale: float, background_px: int, max_count: in
         opened = cv2.morphologyEx(gray, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_RECT, (k, k)))
         tophat = cv2.subtract(gray, cv2.blur(opened, (k, k)))
     smooth = cv2.GaussianBlur(tophat, (0, 0), 1.0)
-    sample = smooth[::4, ::4].astype(np.float32)
-    typical = float(np.median(sample))
-    noise = max(0.5, 1.4826 * float(np.median(np.abs(sample - typical))))
+    typical, deviation = median_and_mad(smooth[::4, ::4])
+    noise = max(0.5, 1.4826 * deviation)
     level = typical + _RESPONSE_SIGMAS * noise
     maxima = (smooth >= cv2.dilate(smooth, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5)))) & (smooth > level)
     _, _, centres = components(maxima.astype(np.uint8))
@@ -113,7 +113,7 @@ def find_leds(small: np.ndarray, scale: float, background_px: int, max_count: in
     strength = contrast[np.arange(len(x)), best] / noise
     radius = _SCALES[best]
     keep = (strength > _RESPONSE_SIGMAS) & _round(smooth.astype(np.float32), x, y, radius)
-    water = float(np.median(gray[::4, ::4]))
+    water = median_and_mad(gray[::4, ::4])[0]
     peak, isolated = _surround_contrast(cv2.GaussianBlur(gray, (0, 0), 1.0).astype(np.float32), x, y, radius, water)
     keep &= peak > 0  # False for NaN: lines are no lights
     order = np.flatnonzero(keep)
@@ -245,7 +245,7 @@ def _glow(image: np.ndarray, u: float, v: float, radius: float, water_bgr: np.nd
     if len(annulus) == 0:
         return 0.0, 0.0, 0.0
     brightest = annulus.max(axis=1)
-    excess = annulus[brightest >= np.median(brightest)].mean(axis=0) - water_bgr
+    excess = annulus[brightest >= median(brightest)].mean(axis=0) - water_bgr
     return float(excess[0]), float(excess[1]), float(excess[2])
 
 
