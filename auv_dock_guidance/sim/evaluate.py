@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -19,7 +20,6 @@ from auv_dock_guidance.geometry.camera import CameraModel
 from auv_dock_guidance.sim.real_dock import real_dock_scene
 from auv_dock_guidance.sim.scenarios import ScenarioMix, random_scene
 from auv_dock_guidance.sim.scene import GroundTruth, SceneSpec, render
-from auv_dock_guidance.sim.workers import worker_pool
 from auv_dock_guidance.vision.detector import Detection, Detector, DetectorConfig
 
 
@@ -136,7 +136,7 @@ def run_cases(
     results: list[FrameOutcome] = []
     mapped: Iterable[FrameOutcome]
     if workers > 1:
-        pool = worker_pool(workers)
+        pool = ProcessPoolExecutor(max_workers=workers)
         mapped = pool.map(_run_one, jobs, chunksize=4)
     else:
         pool = None

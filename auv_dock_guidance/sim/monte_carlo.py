@@ -5,13 +5,13 @@ from __future__ import annotations
 import math
 from collections import Counter
 from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from auv_dock_guidance.sim.closed_loop import EpisodeConfig, EpisodeResult, run_episode
-from auv_dock_guidance.sim.workers import worker_pool
 
 
 def _run(args: tuple[EpisodeConfig, int]) -> EpisodeResult:
@@ -31,7 +31,7 @@ def run_many(
             if progress:
                 progress(len(results), episodes)
         return results
-    with worker_pool(workers) as pool:
+    with ProcessPoolExecutor(max_workers=workers) as pool:
         for result in pool.map(_run, jobs):
             results.append(result)
             if progress:
