@@ -28,6 +28,7 @@ import cv2
 import numpy as np
 
 from auv_dock_guidance.vision.leds import COLOURED_GLOW_SATURATION, LedBlob, glow_saturation
+from auv_dock_guidance.vision.levels import median
 
 MIN_LEDS_KNOWN_COUNT = 3  # a corner: three neighbouring LEDs of a ring of known count
 MIN_LEDS_UNKNOWN_COUNT = 5  # without the count, fewer could be any lights that happen to lie on a circle...
@@ -474,7 +475,9 @@ class _Refitter:
                     continue
                 lights, slots = self._alike(*start)
                 key = (lights.tobytes(), slots.tobytes())
-                fitted[i] = self._fit(key, lights, slots) if len(lights) >= 3 else None
+                # The last round fits only the lights that fill enough of the slots in view to be a ring.
+                enough = len(lights) >= 3 and (rematch or len(lights) / max(1, expected[i]) >= MIN_OCCUPANCY)
+                fitted[i] = self._fit(key, lights, slots) if enough else None
                 current[i], keys[i] = ((lights, slots), key) if fitted[i] is not None else (None, None)
             if rematch:
                 self._match([(told, fit[0]) for told, fit in zip(keys, fitted, strict=True)
@@ -496,13 +499,11 @@ class _Refitter:
 
     def _ring(self, lights: np.ndarray, slots: np.ndarray, expected: int,
               fitted: tuple[np.ndarray, np.ndarray | None]) -> LedRing | None:
-        """The ring of a finished refit, or None (see `refit`)."""
-        if len(lights) / max(1, expected) < MIN_OCCUPANCY:  # the last round only drops lights
-            return None
+        """The ring of a finished refit (enough of the slots filled), or None (see `refit`)."""
         model, homography = fitted
         points = self.points[lights]
         spacing = float(np.mean(_distance(_next(model, 0), model)))
-        if spacing > MAX_SPACING_SIZES * _median(self.radius[lights]) and not self.on_outline[lights].all():
+        if spacing > MAX_SPACING_SIZES * median(self.radius[lights]) and not self.on_outline[lights].all():
             return None
         residual = float(np.sqrt(np.mean(np.sum((points - model[slots]) ** 2, axis=1)))) / max(spacing, 1e-9)
         (center, a, b), tolerance = _ring_fit(points, slots, self.count)
@@ -534,18 +535,11 @@ class _Refitter:
         if key not in self._alike_lights:
             keep = np.ones(len(lights), bool)
             for values in (self.radius[lights], self.peak[lights]):
-                median = _median(values)
-                keep &= (values <= ALIKE * median) & (values >= median / ALIKE)
+                middle = median(values)
+                keep &= (values <= ALIKE * middle) & (values >= middle / ALIKE)
             self._alike_lights[key] = keep
         keep = self._alike_lights[key]
         return lights[keep], slots[keep]
-
-
-def _median(values: np.ndarray) -> float:
-    """np.median of a short array of finite values, the same number without its overhead."""
-    ordered = np.sort(values)
-    mid = len(ordered) // 2
-    return float(ordered[mid]) if len(ordered) % 2 else float((ordered[mid - 1] + ordered[mid]) / 2)
 
 
 def _unit_circle(slots: np.ndarray, count: int) -> np.ndarray:

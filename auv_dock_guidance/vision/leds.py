@@ -35,6 +35,9 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
+from auv_dock_guidance.vision.components import components
+from auv_dock_guidance.vision.levels import median, median_and_mad
+
 _SCALES = np.array([1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0])  # box half widths tried, search-copy pixels
 _RESPONSE_SIGMAS = 5.0  # a blob's centre-surround contrast must stand this many noise deviations clear
 _MAX_CURVATURE_RATIO = 10.0  # curvature ratio above which a peak is a ridge (Lowe's edge test)
@@ -94,15 +97,14 @@ def find_leds(small: np.ndarray, scale: float, background_px: int, max_count: in
         opened = cv2.morphologyEx(gray, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_RECT, (k, k)))
         tophat = cv2.subtract(gray, cv2.blur(opened, (k, k)))
     smooth = cv2.GaussianBlur(tophat, (0, 0), 1.0)
-    sample = smooth[::4, ::4].astype(np.float32)
-    typical = float(np.median(sample))
-    noise = max(0.5, 1.4826 * float(np.median(np.abs(sample - typical))))
+    typical, deviation = median_and_mad(smooth[::4, ::4])
+    noise = max(0.5, 1.4826 * deviation)
     level = typical + _RESPONSE_SIGMAS * noise
     maxima = (smooth >= cv2.dilate(smooth, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5)))) & (smooth > level)
-    count, _, _, centres = cv2.connectedComponentsWithStats(maxima.astype(np.uint8), connectivity=8)
-    if count <= 1:
+    _, _, centres = components(maxima.astype(np.uint8))
+    if not len(centres):
         return []
-    xy = np.round(centres[1:]).astype(np.int64)  # one point per maximum: a saturated plateau is one
+    xy = np.round(centres).astype(np.int64)  # one point per maximum: a saturated plateau is one
     heights = smooth[xy[:, 1], xy[:, 0]]
     xy = xy[np.argsort(-heights, kind="stable")][: 8 * max_count]
     x, y = xy[:, 0].astype(np.int64), xy[:, 1].astype(np.int64)
@@ -111,7 +113,7 @@ def find_leds(small: np.ndarray, scale: float, background_px: int, max_count: in
     strength = contrast[np.arange(len(x)), best] / noise
     radius = _SCALES[best]
     keep = (strength > _RESPONSE_SIGMAS) & _round(smooth.astype(np.float32), x, y, radius)
-    water = float(np.median(gray[::4, ::4]))
+    water = median_and_mad(gray[::4, ::4])[0]
     peak, isolated = _surround_contrast(cv2.GaussianBlur(gray, (0, 0), 1.0).astype(np.float32), x, y, radius, water)
     keep &= peak > 0  # False for NaN: lines are no lights
     order = np.flatnonzero(keep)
@@ -142,10 +144,10 @@ def lit_region(small: np.ndarray) -> LitRegion | None:
     """The copy's pixels at full scale, if a part of them is wider than an LED (``small``: the copy or its
     `mean_channel`)."""
     bright = (mean_channel(small) >= _LIT_LEVEL).astype(np.uint8)
-    count, _, stats, _ = cv2.connectedComponentsWithStats(bright, connectivity=8)
-    if count <= 1:
+    _, stats, _ = components(bright)
+    if not len(stats):
         return None
-    radius = math.sqrt(float(stats[1:, cv2.CC_STAT_AREA].max()) / math.pi)
+    radius = math.sqrt(float(stats[:, cv2.CC_STAT_AREA].max()) / math.pi)
     return LitRegion(bright, radius) if radius >= _LIT_MIN_RADIUS else None
 
 
@@ -243,7 +245,7 @@ def _glow(image: np.ndarray, u: float, v: float, radius: float, water_bgr: np.nd
     if len(annulus) == 0:
         return 0.0, 0.0, 0.0
     brightest = annulus.max(axis=1)
-    excess = annulus[brightest >= np.median(brightest)].mean(axis=0) - water_bgr
+    excess = annulus[brightest >= median(brightest)].mean(axis=0) - water_bgr
     return float(excess[0]), float(excess[1]), float(excess[2])
 
 

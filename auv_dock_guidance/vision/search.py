@@ -15,6 +15,7 @@ from collections.abc import Generator, Sequence
 import cv2
 import numpy as np
 
+from auv_dock_guidance.vision.components import components
 from auv_dock_guidance.vision.config import DetectorConfig
 from auv_dock_guidance.vision.image_input import intensity
 from auv_dock_guidance.vision.levels import median_and_mad
@@ -104,11 +105,11 @@ def search_steps(config: DetectorConfig, lens_scale: float, min_radius_px: float
         grouped = mask if kernel_size <= 1 else cv2.dilate(
             mask, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (kernel_size, kernel_size))
         )
-        count, labels, stats, _ = cv2.connectedComponentsWithStats(grouped, connectivity=8)
+        labels, stats, _ = components(grouped)
         grow = (kernel_size - 1) // 2  # how far the grouping widened each region (small-copy px)
         found = []
-        for i in range(1, count):
-            x, y, bw, bh = (int(v) for v in stats[i, :4])
+        for i, row in enumerate(stats, start=1):
+            x, y, bw, bh = (int(v) for v in row[:4])
             x0, y0, x1, y1 = (x - 1) / s, (y - 1) / s, (x + bw + 1) / s, (y + bh + 1) / s
             radius = max(1.0, 0.5 * max(x1 - x0, y1 - y0) - 0.5 * (kernel_size - 1) / s)
             if radius >= min_radius:
