@@ -36,7 +36,7 @@ import cv2
 import numpy as np
 
 from auv_dock_guidance.vision.components import components
-from auv_dock_guidance.vision.levels import median, median_and_mad
+from auv_dock_guidance.vision.levels import median, median_and_mad, pixel_median
 
 _SCALES = np.array([1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0])  # box half widths tried, search-copy pixels
 _RESPONSE_SIGMAS = 5.0  # a blob's centre-surround contrast must stand this many noise deviations clear
@@ -113,7 +113,7 @@ def find_leds(small: np.ndarray, scale: float, background_px: int, max_count: in
     strength = contrast[np.arange(len(x)), best] / noise
     radius = _SCALES[best]
     keep = (strength > _RESPONSE_SIGMAS) & _round(smooth.astype(np.float32), x, y, radius)
-    water = median_and_mad(gray[::4, ::4])[0]
+    water = pixel_median(gray[::4, ::4])
     peak, isolated = _surround_contrast(cv2.GaussianBlur(gray, (0, 0), 1.0).astype(np.float32), x, y, radius, water)
     keep &= peak > 0  # False for NaN: lines are no lights
     order = np.flatnonzero(keep)

@@ -8,14 +8,20 @@ import numpy as np
 _LEVELS = np.arange(256)
 
 
+def pixel_median(values: np.ndarray) -> float:
+    """Median of 8-bit values, exactly as ``np.median`` gives it (the mean of the two middle
+    values for an even count)."""
+    return _weighted_median(_LEVELS, np.bincount(values.ravel(), minlength=256))
+
+
 def median_and_mad(values: np.ndarray) -> tuple[float, float]:
-    """Median of 8-bit values and their median absolute deviation from it, exactly as
-    ``np.median`` gives them (the mean of the two middle values for an even count)."""
+    """Median of 8-bit values and their median absolute deviation from it, as ``np.median``
+    gives them."""
     counts = np.bincount(values.ravel(), minlength=256)
-    median = _weighted_median(_LEVELS, counts)
-    deviation = np.abs(_LEVELS - median)
+    middle = _weighted_median(_LEVELS, counts)
+    deviation = np.abs(_LEVELS - middle)
     order = np.argsort(deviation, kind="stable")
-    return median, _weighted_median(deviation[order], counts[order])
+    return middle, _weighted_median(deviation[order], counts[order])
 
 
 def _weighted_median(sorted_values: np.ndarray, counts: np.ndarray) -> float:
