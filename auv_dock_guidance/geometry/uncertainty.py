@@ -252,11 +252,11 @@ def _axis(observation: RingObservation, position_cov: np.ndarray,
     mean of their axes were reported: off the true pose by half the distance and half the
     angle between them, less what outline noise alone makes of that.
     """
+    if observation.tilt_disputed:
+        return None, UNKNOWN_VARIANCE, position_cov
     ellipse = observation.ellipse
     ratio_sigma = _ratio_sigma(observation, radius_n)
     whole = ellipse is not None and observation.visible_arc_deg >= 360.0 and math.isfinite(ratio_sigma)
-    if observation.tilt_disputed:
-        return None, UNKNOWN_VARIANCE, position_cov
     if observation.ring_normal is not None and whole:
         axis = np.asarray(observation.ring_normal, dtype=float)
         spread_variance = 0.0
