@@ -95,6 +95,7 @@ class ApproachConfig:
     reposition_speed_mps: float = 0.7  # ...: turn round and drive blind at this speed over ground...
     reposition_to_m: float = 12.0  # ...to a point this far out on the line (a long final on the known axis)
     reposition_from_m: float = 4.0  # ...but not closer than this along the axis (the turn must clear the dock)
+    upstream_margin_mps: float = 0.1  # the back-off point's line is turned for this much more cross current
     facing_deg: float = 10.0  # back at the point, the nose this close to the dock: backed off...
     refound_gap_m: float = 1.5  # ...unless the dock seen again puts the nose this far off the line: go again...
     max_back_off_legs: int = 3  # ...at most this many times per back-off
@@ -153,6 +154,7 @@ class Situation:
     nominal_speed_mps: float  # the speed schedule's speed over ground at this range
     axis_known: bool = False  # the axis is told from its mirror image: sidesteps are allowed
     dock_below_m: float | None = None  # the entrance centre below the reference point; None: not seen yet
+    dock_in_view: bool = True  # seen lately: the track is the camera's, not dead reckoning
 
 
 def _unit(yaw: float) -> tuple[float, float]:
@@ -372,11 +374,22 @@ class ApproachPlanner:
         yaw = self._lead_heading(g, -math.copysign(1.0, off_line), reverse=True)
         return Plan(wrap_angle(yaw), -self.config.max_speed_mps, Verdict.GO, g.along, g.cross, None, sidestep=True)
 
+    def _back_off_line(self, s: Situation, g: _Geometry) -> float:
+        """The line the back-off point lies on: turned as for a cross current ``upstream_margin_mps`` stronger
+        than the estimate. The estimate after a turn or a blind leg runs low, and an approach begun downstream
+        of the line cannot climb back against the current with the dock in view; from upstream it drifts
+        down onto the line at no cost."""
+        side = _unit(g.axis_yaw + math.pi / 2)
+        extra = math.copysign(self.config.upstream_margin_mps, _dot(s.current_mps, side))
+        current = (s.current_mps[0] + extra * side[0], s.current_mps[1] + extra * side[1])
+        return g.axis_yaw + self._line_turn(g.axis_yaw, current)
+
     def _back_off(self, s: Situation, g: _Geometry) -> Plan:
         """To a point on the line further out, then face the dock: in reverse with the nose on the dock, or
         blind where reversing there would take the dock out of view (see the module docstring)."""
         c = self.config
-        line = _unit(g.line_yaw)
+        line_yaw = self._back_off_line(s, g)
+        line = _unit(line_yaw)
         blind = self._back_off_phase is _BackOff.BLIND
         out = c.reposition_to_m if blind else c.back_off_to_m
         goal = (-out * line[0], -out * line[1])
@@ -390,8 +403,8 @@ class ApproachPlanner:
             self._back_off_legs += 1
         if self._back_off_phase is _BackOff.FACE:  # hold against the current along the nose while turning
             facing = abs(wrap_angle(s.heading_rad - g.sight)) < math.radians(c.facing_deg)
-            off_line = abs(_dot(g.nose, _unit(g.line_yaw + math.pi / 2)))
-            if facing and off_line > c.refound_gap_m and self._back_off_legs < c.max_back_off_legs:
+            off_line = abs(_dot(g.nose, _unit(line_yaw + math.pi / 2)))
+            if facing and s.dock_in_view and off_line > c.refound_gap_m and self._back_off_legs < c.max_back_off_legs:
                 # The dock seen again moved the track: the blind leg's dead reckoning drifted off the line
                 # (a retry begun metres beside it misses the same way). Go to the point again.
                 self._back_off_phase = _BackOff.REVERSE

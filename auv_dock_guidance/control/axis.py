@@ -33,7 +33,6 @@ mirror needs a larger margin to be ruled out.
 from __future__ import annotations
 
 import math
-from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,7 +56,7 @@ class AxisConfig:
     min_margin: float = 16.0  # cost (squared sigmas) by which the mirror must explain the observations worse
     min_view_change_deg: float = 4.0  # ...after the line of sight has swung at least this much among them
     coincide_deg: float = 3.0  # candidates closer than this to the line of sight: no mirror ambiguity
-    memory: int = 300  # observations kept
+    memory: int = 300  # observations kept (when full, the least certain goes)
     candidates: int = 60  # the most recent observations' directions are tried as the estimate
     max_tilt_deg: float = 75.0  # a normal further than this from the line of sight is not a ring's
 
@@ -76,7 +75,7 @@ class AxisEstimator:
 
     def reset(self) -> None:
         # candidate a, its mirror b, sigma, line of sight (rad), range (m)
-        self._observations: deque[tuple[float, float, float, float, float]] = deque(maxlen=self.config.memory)
+        self._observations: list[tuple[float, float, float, float, float]] = []
         self._line_of_sight_rad: float | None = None  # direction from the vehicle to the dock
         self._chosen: float | None = None  # the last estimate: kept over its mirror until the mirror is clearly better
         self._estimate: AxisEstimate | None = None
@@ -101,6 +100,10 @@ class AxisEstimator:
         self._line_of_sight_rad = math.atan2(dock[1], dock[0])
         self._observations.append((math.atan2(-normal[1], -normal[0]), math.atan2(-mirror[1], -mirror[0]), sigma,
                                    self._line_of_sight_rad, distance))
+        if len(self._observations) > c.memory:
+            # The least certain goes, not the oldest: the dock does not move, and a retry's minute of vague
+            # views from 7 m must not push out the few close ones that saw the tilt.
+            del self._observations[max(range(len(self._observations)), key=lambda i: self._observations[i][2])]
         self._estimate = self._estimated()
 
     def estimate(self) -> AxisEstimate | None:

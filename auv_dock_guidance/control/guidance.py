@@ -103,6 +103,7 @@ class GuidanceConfig:
     max_retries: int = 3  # backing off this many times and still missing: ABORT...
     last_try_tolerance_m: float = 0.18  # ...unless the predicted miss is within this (clear of the rim): go in
     retry_blind_timeout_s: float = 40.0  # RETRY without a detection this long (turned round to get back) -> SEARCH
+    faced_unseen_timeout_s: float = 4.0  # RETRY facing where the track puts the dock, not seeing it this long -> SEARCH
     speed_time_constant_s: float = 1.0  # how fast the vehicle's speed through the water follows its thrust
     cascade: CascadeConfig = field(default_factory=CascadeConfig)
     mixer: MixerConfig = field(default_factory=MixerConfig)
@@ -113,7 +114,7 @@ class GuidanceConfig:
     def __post_init__(self) -> None:
         positive = (
             self.terminal_range_m, self.track_lost_timeout_s, self.terminal_lost_timeout_s, self.search_timeout_s,
-            self.terminal_blind_timeout_s, self.retry_blind_timeout_s,
+            self.terminal_blind_timeout_s, self.retry_blind_timeout_s, self.faced_unseen_timeout_s,
             self.telemetry_timeout_s, self.detection_max_age_s, self.max_roll_rad, self.max_pitch_rad,
             self.blind_range_m, self.camera_timeout_s, self.recovery_s, self.speed_time_constant_s,
             self.last_try_tolerance_m,
@@ -203,6 +204,7 @@ class Guidance:
         self._target_gate = StampGate()
         self._dock_below_m: float | None = None  # the entrance centre below the reference point (level frame)
         self._entry_checked = False  # the entry was predicted since the vehicle came within the commit distance
+        self._faced_since: float | None = None  # RETRY: facing the dock by the track since
 
     def _follow_clock(self, now_s: float) -> None:
         """Move every remembered time back with a backward clock step, so timers keep counting."""
@@ -211,7 +213,7 @@ class Guidance:
             return
         step = now_s - last
         self.clock_steps_back += 1
-        for name in ("_since", "_last_seen_s", "_last_frame_s", "_healthy_since", "_last_update_s"):
+        for name in ("_since", "_last_seen_s", "_last_frame_s", "_healthy_since", "_last_update_s", "_faced_since"):
             value = getattr(self, name)
             if value is not None:
                 setattr(self, name, value + step)
@@ -294,7 +296,8 @@ class Guidance:
                 self._observe(target, attitude)
             # The entry is checked with each new detection, and once on crossing the commit distance
             # even without one (the ring may be out of sight just then).
-            plan = self._plan(attitude, predict_entry=target is not None or not self._entry_checked)
+            plan = self._plan(attitude, predict_entry=target is not None or not self._entry_checked,
+                              dock_in_view=self._seen_within(now_s, c.track_lost_timeout_s))
             if plan is not None:
                 self._entry_checked = plan.along_m < c.approach.commit_m and (
                     self._entry_checked or plan.predicted_miss_m is not None or plan.verdict is Verdict.WOULD_MISS)
@@ -318,7 +321,8 @@ class Guidance:
         seen = self._last_target.range_m - self._run_since_sighting if self._last_target else None
         if plan is not None:
             if (self.state is State.RETRY) != (before is State.RETRY):
-                plan = self._plan(attitude, predict_entry=False)
+                plan = self._plan(attitude, predict_entry=False,
+                                  dock_in_view=self._seen_within(now_s, c.track_lost_timeout_s))
             assert plan is not None  # the tracker has a fix once anything was seen
             self.cascade.steer(plan.yaw_rad, 0.0 if self.state is State.RETRY else plan.pitch_rad)
             speed = plan.speed_mps
@@ -350,7 +354,10 @@ class Guidance:
         if self.config.axis_alignment and target.axis_optical is not None:
             self.axis.observe(target, target.axis_optical, attitude)
 
-    def _plan(self, attitude: Attitude, predict_entry: bool) -> Plan | None:
+    def _seen_within(self, now_s: float, limit_s: float) -> bool:
+        return self._last_seen_s is not None and now_s - self._last_seen_s <= limit_s
+
+    def _plan(self, attitude: Attitude, predict_entry: bool, dock_in_view: bool) -> Plan | None:
         fix = self.tracker.fix()
         if fix is None:
             return None
@@ -361,7 +368,7 @@ class Guidance:
             water_speed_mps=self._water_speed, axis_yaw_rad=axis.yaw_rad if axis is not None else None,
             camera_ahead_m=self.config.tracker.camera_ahead_m,
             nominal_speed_mps=self.cascade.speed_for_range(range_m - self.config.tracker.camera_ahead_m),
-            axis_known=axis is not None and axis.known, dock_below_m=self._dock_below_m,
+            axis_known=axis is not None and axis.known, dock_below_m=self._dock_below_m, dock_in_view=dock_in_view,
         )
         return self.planner.plan(situation, backing_off=self.state is State.RETRY, predict_entry=predict_entry)
 
@@ -440,8 +447,14 @@ class Guidance:
                 new_state = State.RETRY
                 reason = f"entry would miss ({miss}) {plan.along_m:.1f} m out: back off, retry {self.retries}"
         elif previous is State.RETRY:
+            facing = plan is not None and plan.verdict is Verdict.BACKED_OFF
+            self._faced_since = (self._faced_since if self._faced_since is not None else now_s) if facing else None
+            faced_for = now_s - self._faced_since if self._faced_since is not None else 0.0
             if lost_for > c.retry_blind_timeout_s:
                 new_state, reason = State.SEARCH, f"marker lost for {lost_for:.1f} s while backing off"
+            elif min(faced_for, lost_for) > c.faced_unseen_timeout_s:
+                new_state, reason = State.SEARCH, (f"facing where the track puts the dock for {faced_for:.1f} s "
+                                                   "without seeing it: the dead reckoning drifted")
             elif plan is not None and plan.verdict is Verdict.BACKED_OFF and lost_for <= c.track_lost_timeout_s:
                 new_state, reason = State.TRACK, f"backed off to {plan.along_m:.1f} m: approach again"
         elif previous is State.TRACK:
@@ -469,6 +482,7 @@ class Guidance:
             return None
         self.state = new_state
         self._since = now_s
+        self._faced_since = None
         if new_state is State.SEARCH:
             self._streak = 0
         return Transition(now_s, previous, new_state, reason)

@@ -11,7 +11,10 @@ detection, turned into the level frame with the attitude at the frame, corrects 
 difference between where the vehicle went and where its own motion took it is the drift:
 the current estimate that lets guidance crab into it. Beyond the paper: it also smooths
 detection noise, rejects outliers (a gate on the innovation) and predicts through
-dropouts and the blind last metre.
+dropouts and the blind last metre. When the track itself is wrong (a blind leg's dead
+reckoning drifted), the detections it rejects agree with each other: a few of those in a
+row restart the position. Rejected detections that disagree (partial rings close in, each
+wild in its own way) restart nothing.
 """
 
 from __future__ import annotations
@@ -59,7 +62,7 @@ class TrackerConfig:
     lateral_noise_per_m: float = 0.009  # measurement noise across the line of sight (detector + attitude), per m
     range_noise_rel: float = 0.02  # measurement noise along it, relative to range
     gate_chi2: float = 13.8  # innovation gate (2 dof, 99.9 %): larger jumps are rejected
-    max_rejections: int = 3  # this many rejections in a row restart the position on the new detection
+    max_rejections: int = 3  # this many rejected detections that agree with each other restart the position
     estimate_current: bool = True  # False: the position follows each detection, no drift estimate
 
 
@@ -81,7 +84,7 @@ class DockTracker:
     def reset(self) -> None:
         self._x: np.ndarray | None = None  # rx, ry, cx, cy, speed model error (share)
         self._p = np.eye(5)
-        self._rejections = 0
+        self._rejected: list[tuple[np.ndarray, np.ndarray]] = []  # recent rejected positions and their noise
         self.rejected = 0
 
     @property
@@ -104,10 +107,13 @@ class DockTracker:
         if c.estimate_current:
             f[0, 2] = f[1, 3] = dt
             f[0, 4], f[1, 4] = own_displacement_m
-        self._x = f @ self._x + np.array([own_displacement_m[0], own_displacement_m[1], 0.0, 0.0, 0.0])
+        moved = f @ self._x + np.array([own_displacement_m[0], own_displacement_m[1], 0.0, 0.0, 0.0])
+        motion = moved[:2] - self._x[:2]
+        self._x = moved
         q = np.diag([c.motion_noise_mps**2 * dt] * 2 + [c.current_noise_mps2**2 * dt] * 2
                     + [c.speed_error_noise_per_s**2 * dt])
         self._p = f @ self._p @ f.T + q
+        self._rejected = [(z + motion, r + q[:2, :2]) for z, r in self._rejected]  # carried on as the track is
 
     def update(self, target: Target, attitude: Attitude) -> bool:
         """Correct with a detection; False if it was rejected as an outlier."""
@@ -125,14 +131,15 @@ class DockTracker:
         distance = float(innovation @ np.linalg.solve(s, innovation))
         if not math.isfinite(distance) or distance > c.gate_chi2:
             self.rejected += 1
-            self._rejections += 1
-            if self._rejections >= c.max_rejections:
+            self._rejected = [(old, r_old) for old, r_old in self._rejected
+                              if _agree(z - old, r + r_old, c.gate_chi2)] + [(z, r)]
+            if len(self._rejected) >= c.max_rejections:
                 self._start(z, r)
             return False
         k = self._p @ h.T @ np.linalg.inv(s)
         self._x = self._x + k @ innovation
         self._p = (np.eye(5) - k @ h) @ self._p
-        self._rejections = 0
+        self._rejected = []
         return True
 
     def _start(self, z: np.ndarray, r: np.ndarray) -> None:
@@ -147,7 +154,7 @@ class DockTracker:
         self._p = np.zeros((5, 5))
         self._p[:2, :2] = r
         self._p[2:, 2:] = current_p
-        self._rejections = 0
+        self._rejected = []
 
     def _measurement_noise(self, dock_level: np.ndarray) -> np.ndarray:
         c = self.config
@@ -156,3 +163,9 @@ class DockTracker:
         across = np.array([-along[1], along[0]])
         return ((c.range_noise_rel * distance) ** 2 * np.outer(along, along)
                 + (c.lateral_noise_per_m * distance) ** 2 * np.outer(across, across) + 1e-6 * np.eye(2))
+
+
+def _agree(difference: np.ndarray, covariance: np.ndarray, gate_chi2: float) -> bool:
+    """Two positions the same within their noise (the innovation gate)."""
+    distance = float(difference @ np.linalg.solve(covariance, difference))
+    return math.isfinite(distance) and distance <= gate_chi2

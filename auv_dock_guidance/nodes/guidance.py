@@ -88,6 +88,8 @@ PARAMS = [
           0.01, 1.0),
     Param("retry_blind_timeout_s", 40.0, "backing off (perhaps turned round) without a detection this long: search (s)",
           1.0, 600.0),
+    Param("faced_unseen_timeout_s", 4.0, "facing the dock by the track after backing off, unseen this long: search (s)",
+          0.5, 600.0),
     Param("max_speed_mps", 0.9, "fastest approach through the water, used against a cross current (m/s)", 0.1, 5.0),
     Param("entry_crab_deg", 10.0, "largest heading off the dock's axis for the last metres (deg)", 1.0, 30.0),
     Param("sidestep", False, "back off sideways in reverse when the approach line is out of reach (else retry)"),
@@ -108,6 +110,7 @@ def guidance_config(v: dict[str, Any], mixer: MixerConfig, camera_ahead_m: float
     return GuidanceConfig(
         velocity_steering=v["velocity_steering"], axis_alignment=v["axis_alignment"], max_retries=v["max_retries"],
         last_try_tolerance_m=v["last_try_tolerance_m"], retry_blind_timeout_s=v["retry_blind_timeout_s"],
+        faced_unseen_timeout_s=v["faced_unseen_timeout_s"],
         approach=approach, tracker=TrackerConfig(camera_ahead_m=camera_ahead_m),
         confirm_frames=v["confirm_frames"], terminal_range_m=v["terminal_range_m"], blind_range_m=v["blind_range_m"],
         track_lost_timeout_s=v["track_lost_timeout_s"], terminal_lost_timeout_s=v["terminal_lost_timeout_s"],

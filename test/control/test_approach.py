@@ -8,6 +8,7 @@ import math
 from dataclasses import replace
 
 import numpy as np
+import pytest
 
 from auv_dock_guidance.control.approach import ApproachConfig, ApproachPlanner, Situation, Verdict
 from auv_dock_guidance.control.axis import AxisEstimator
@@ -87,6 +88,21 @@ def test_the_drift_against_the_vehicles_own_motion_is_the_current():
     assert np.allclose(fix.position_m, auv.position, atol=0.1)
 
 
+def test_rejected_detections_restart_the_track_only_when_they_agree_with_each_other():
+    """A drifted track is corrected by detections that agree with each other; partial rings close in
+    are wild each in their own way and must not move it."""
+    def tracker_after(ranges):
+        tracker = DockTracker()
+        tracker.update(Target(0.0, 3.0, 0.0, 0.0), Attitude(0.0, 0.0, 0.0, 0.0))
+        for i, range_m in enumerate(ranges, start=1):
+            tracker.predict(0.1, (0.0, 0.0))
+            tracker.update(Target(0.1 * i, range_m, 0.0, 0.0), Attitude(0.1 * i, 0.0, 0.0, 0.0))
+        return -tracker.fix().position_m[0] - AHEAD  # the camera's range to the dock
+
+    assert tracker_after([7.5, 7.5, 7.5]) == pytest.approx(7.5, abs=0.05)
+    assert tracker_after([4.5, 7.5, 5.8]) == pytest.approx(3.0, abs=0.05)
+
+
 def test_the_axis_is_told_from_its_mirror_once_the_view_moves():
     axis = AxisEstimator()
     for i in range(40):  # one viewpoint: the two candidates explain the views equally well
@@ -156,8 +172,9 @@ def test_forty_degrees_off_the_axis_lines_up_before_the_entry():
 
 def test_backing_off_where_reversing_would_lose_the_dock_it_turns_round_and_faces_the_dock_at_the_point():
     """5 m out and 3 m to starboard, the current setting further to starboard: reversing to the line
-    would point the nose 40+ deg off the dock, so it turns round and drives out blind."""
-    planner = ApproachPlanner()
+    would point the nose 40+ deg off the dock, so it turns round and drives out blind (the point on the
+    line itself here: the up-current margin has its own test)."""
+    planner = ApproachPlanner(ApproachConfig(upstream_margin_mps=0.0))
     c = planner.config
     position, current = (-5.0 - AHEAD, 3.0), (0.0, 0.2)
     sight = math.atan2(-3.0, 5.0)
@@ -193,28 +210,46 @@ def test_far_round_the_dock_in_a_strong_cross_current_one_blind_retry_brings_it_
     assert abs(auv.nose[1]) < 0.05 and abs(auv.heading) < math.radians(10)
 
 
-def test_a_retry_that_never_sees_the_dock_again_searches_after_its_blind_timeout():
-    """RETRY goes on without detections (it may be turned round), but not for ever."""
+def retry_unseen(config=GuidanceConfig(), seconds=80.0):
+    """Guidance into a retry 20 deg off the axis in a cross current; from then on the camera sees nothing.
+    Returns (time since the retry began, state, transition) for every tick after it."""
     start = 10.0 * np.array([-math.cos(math.radians(20)), math.sin(math.radians(20))])
     auv = KinematicAuv(start, math.atan2(-start[1], -start[0]), (0.0, 0.25))
-    guidance = Guidance()
-    t, dt, retry_since, states = 0.0, 0.05, None, []
-    while t < 80.0:
+    guidance = Guidance(config)
+    t, dt, retry_since, ticks = 0.0, 0.05, None, []
+    while t < seconds:
         attitude = Attitude(t, 0.0, 0.0, auv.heading, 8.0)
         guidance.frame_processed(t)
         seen = abs(math.remainder(math.atan2(-auv.nose[1], -auv.nose[0]) - auv.heading, 2 * math.pi)) < 0.5
         out = guidance.update(t, sighting(auv.position, auv.heading, t) if seen and retry_since is None else None,
                               attitude)
         if out.state is State.RETRY and retry_since is None:
-            retry_since = t  # from here on the camera sees nothing
+            retry_since = t
         if retry_since is not None:
-            states.append((t - retry_since, out.state))
+            ticks.append((t - retry_since, out.state, out.transition))
         if out.demands is not None:
             auv.step(out.demands.yaw_setpoint_rad, out.demands.speed_setpoint_mps, dt)
         t += dt
-    limit = guidance.config.retry_blind_timeout_s
-    assert all(state is State.RETRY for since, state in states if since < limit - 0.1)
-    assert {state for since, state in states if since > limit + 0.1} == {State.SEARCH}
+    return ticks
+
+
+def test_a_retry_that_faces_the_point_and_never_sees_the_dock_searches():
+    """The dead reckoning of a blind leg can end with the dock out of view: facing where the track puts it
+    without a sighting, the track is wrong, and waiting there for the blind timeout helps no one."""
+    ticks = retry_unseen()
+    searched = [(since, transition) for since, state, transition in ticks if transition and state is State.SEARCH]
+    assert searched, "never searched"
+    since, transition = searched[0]
+    assert since < GuidanceConfig().retry_blind_timeout_s and "without seeing it" in transition.reason
+    assert all(state is State.RETRY for when, state, _ in ticks if when < since)
+
+
+def test_a_retry_that_never_sees_the_dock_again_searches_after_its_blind_timeout():
+    """RETRY goes on without detections (it may be turned round), but not for ever."""
+    ticks = retry_unseen(GuidanceConfig(faced_unseen_timeout_s=100.0))
+    limit = GuidanceConfig().retry_blind_timeout_s
+    assert all(state is State.RETRY for since, state, _ in ticks if since < limit - 0.1)
+    assert {state for since, state, _ in ticks if since > limit + 0.1} == {State.SEARCH}
 
 
 def test_the_entry_is_checked_on_crossing_the_commit_distance_even_with_the_ring_out_of_sight():
@@ -318,6 +353,21 @@ def test_close_views_outweigh_many_far_ones_that_the_halo_made_look_head_on():
     assert abs(axis.estimate().yaw_rad) < math.radians(2)
 
 
+def test_a_long_wait_in_one_place_does_not_forget_the_close_views_that_told_the_axis():
+    """Close views from either side of the axis tell it from its mirror; a retry then waits 7 m out for
+    longer than the memory holds. The vague views go first, so the axis stays known."""
+    axis = AxisEstimator()
+    for target, attitude in _sweep((-4.0, 1.2), (-2.5, -0.6), 20, 0.0, lambda heading: 0.0, 0.01):
+        axis.observe(target, target.axis_optical, attitude)
+    assert axis.estimate().known
+    position, heading = (-7.0, 1.5), math.atan2(-1.5, 7.0)
+    for i in range(axis.config.memory + 50):
+        target = replace(sighting(position, heading, 3.0 + 0.1 * i), axis_sigma_rad=0.05)
+        axis.observe(target, target.axis_optical, Attitude(target.stamp_s, 0, 0, heading))
+    estimate = axis.estimate()
+    assert estimate.known and abs(estimate.yaw_rad) < math.radians(1)
+
+
 def test_views_less_certain_than_the_limit_are_left_out():
     axis = AxisEstimator()
     limit = math.radians(axis.config.max_sigma_deg) / axis.config.reported_sigma_scale
@@ -369,3 +419,21 @@ def test_a_back_off_point_the_dock_seen_again_puts_metres_off_the_line_is_gone_t
     assert faced_after_the_track_moved((-out, 2.0)).verdict is Verdict.GO  # 2 m off it: to the point again
     one_leg = ApproachConfig(max_back_off_legs=1)  # the last leg's point stands wherever the track moves it
     assert faced_after_the_track_moved((-out, 2.0), one_leg).verdict is Verdict.BACKED_OFF
+    # Only a sighting moves the track that much: dead reckoning alone sends it nowhere (it would chase its drift).
+    unseen = replace(facing_from((-out, 2.0)), dock_in_view=False)
+    planner = ApproachPlanner()
+    planner.plan(facing_from((-out, 0.0)), backing_off=True)
+    assert planner.plan(unseen, backing_off=True).verdict is Verdict.BACKED_OFF
+
+
+def test_the_back_off_point_lies_up_current_of_the_line():
+    """After a turn or a blind leg the current estimate runs low. From up-current of the line the next
+    approach drifts down onto it; from down-current it cannot climb back with the dock in view."""
+    def back_off_from_the_line(config):
+        nose = (-ApproachConfig().reposition_to_m, 0.0)  # on the axis, facing the dock, 0.12 m/s to starboard
+        situation = Situation((nose[0] - AHEAD, 0.0), (0.0, 0.12), 0.0, 0.0, 0.0, AHEAD, 0.3, axis_known=True)
+        return ApproachPlanner(config).plan(situation, backing_off=True)
+
+    assert back_off_from_the_line(ApproachConfig(upstream_margin_mps=0.0)).verdict is Verdict.BACKED_OFF
+    moving = back_off_from_the_line(ApproachConfig())
+    assert moving.verdict is Verdict.GO and math.sin(moving.yaw_rad) < -0.5  # out to port, against the current
