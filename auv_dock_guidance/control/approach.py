@@ -8,9 +8,10 @@ line); the heading is what makes the velocity over ground point along that cours
 current (crab into it), and the speed through the water is raised until the crab fits
 the heading limit for the entry.
 
-When the cross current is stronger than the fastest vehicle can crab into within the
-entry limit, the heading is held at the limit and the line itself is turned until the
-resulting drift carries the nose into the centre: the vehicle enters at the heading
+The crab plans for the entry limit less a reserve (``line_margin_deg``) that answers gusts
+and late corrections. When the cross current is stronger than the fastest vehicle can crab
+into within that, the heading is held there and the line itself is turned until the
+resulting drift carries the nose into the centre: the vehicle enters within the heading
 limit on a line a little off the axis, as an aircraft lands in a crosswind. The camera
 must keep the dock in view, so the heading stays within ``fov_margin_deg`` of the dock's
 bearing until the ring is too close to matter.
@@ -81,7 +82,7 @@ class ApproachConfig:
     lookahead_share: float = 0.4  # lookahead = share of the distance along the line, within the limits
     lookahead_min_m: float = 1.0
     lookahead_max_m: float = 5.0
-    line_margin_deg: float = 2.0  # in a cross current beyond the limit: the line turns this much past the drift
+    line_margin_deg: float = 2.0  # of the entry limit kept in reserve (the crab plans for the rest): to correct with
     commit_m: float = 3.0  # closer than this along the axis the crossing is predicted and checked
     entry_tolerance_m: float = 0.12  # predicted miss distance that makes the vehicle back off
     entry_heading_limit_deg: float = 12.0  # predicted heading off the axis at the entry that makes it back off
@@ -274,7 +275,8 @@ class ApproachPlanner:
         line, line_side = _unit(g.line_yaw), _unit(g.line_yaw + math.pi / 2)
         on_line, off_line = -_dot(g.nose, line), _dot(g.nose, line_side)
         course = g.line_yaw - math.atan2(off_line, self._lookahead(on_line))
-        crab_limit = math.radians(c.entry_crab_deg + (c.far_crab_deg - c.entry_crab_deg) * _clamp(
+        held = c.entry_crab_deg - c.line_margin_deg  # the crab planned for; the rest of the limit corrects
+        crab_limit = math.radians(held + (c.far_crab_deg - held) * _clamp(
             (g.along - c.crab_near_m) / (c.crab_far_m - c.crab_near_m), 0.0, 1.0))
         nominal = max(s.nominal_speed_mps, c.entry_speed_mps) if g.along < c.crab_near_m else s.nominal_speed_mps
         speed, yaw = self._crab(course, s.current_mps, nominal, crab_limit, self._climb_speed(s, g))
@@ -314,17 +316,16 @@ class ApproachPlanner:
         return None
 
     def _line_turn(self, axis_yaw: float, current: tuple[float, float]) -> float:
-        """How far the approach line turns off the axis so that the drift at the heading limit ends in the centre."""
+        """How far the approach line turns off the axis so that the drift at the planned crab ends in the centre."""
         c = self.config
         across = _dot(current, _unit(axis_yaw + math.pi / 2))
-        limit = math.radians(c.entry_crab_deg)
-        if abs(across) <= c.max_speed_mps * math.sin(limit):
+        held = math.radians(c.entry_crab_deg - c.line_margin_deg)  # the rest of the limit corrects gusts and errors
+        if abs(across) <= c.max_speed_mps * math.sin(held):
             return 0.0
-        into = -math.copysign(limit, across)  # nose into the current
+        into = -math.copysign(held, across)  # nose into the current
         h = _unit(axis_yaw + into)
         ground = (c.max_speed_mps * h[0] + current[0], c.max_speed_mps * h[1] + current[1])
-        drift = wrap_angle(math.atan2(ground[1], ground[0]) - axis_yaw)
-        return drift + math.copysign(math.radians(c.line_margin_deg), drift)
+        return wrap_angle(math.atan2(ground[1], ground[0]) - axis_yaw)
 
     def _crab(self, course: float, current: tuple[float, float], nominal: float, crab_limit: float,
               least: float = 0.0) -> tuple[float, float]:
