@@ -88,7 +88,8 @@ class ApproachConfig:
     entry_heading_limit_deg: float = 12.0  # predicted heading off the axis at the entry that makes it back off
     rollout_s: float = 20.0  # the prediction flies the law on for at most this long...
     rollout_step_s: float = 0.1  # ...in steps of this
-    turn_rate_deg_s: float = 20.0  # how fast the heading follows its goal (the cascade's setpoint rate limit)
+    turn_rate_deg_s: float = 20.0  # how fast the heading follows its goal (the cascade's setpoint rate limit)...
+    heading_time_constant_s: float = 0.8  # ...and the heading lags that setpoint (the attitude loop's response)
     speed_time_constant_s: float = 1.0
     back_off_to_m: float = 8.0  # along the line
     back_off_speed_mps: float = 0.4  # over ground
@@ -290,8 +291,9 @@ class ApproachPlanner:
     def _rolled_out_miss(self, s: Situation, yaw: float, speed: float) -> float | None:
         """Off-centre distance where the nose crosses the entrance plane if this law flies on from here.
 
-        A kinematic roll-out (heading turning towards its goal at ``turn_rate_deg_s``, speed
-        following its goal with ``speed_time_constant_s``, the current estimate as it is);
+        A kinematic roll-out (the heading setpoint turning towards its goal at ``turn_rate_deg_s``,
+        the heading lagging it by ``heading_time_constant_s``, speed following its goal with
+        ``speed_time_constant_s``, the current estimate as it is);
         None if the nose does not reach the plane within ``rollout_s`` or the heading there is
         beyond the entry limit.
         """
@@ -299,6 +301,7 @@ class ApproachPlanner:
         dt = c.rollout_step_s
         turn = math.radians(c.turn_rate_deg_s) * dt
         heading, water = s.heading_rad, s.water_speed_mps
+        setpoint, lag = heading, min(1.0, dt / c.heading_time_constant_s) if c.heading_time_constant_s > 0 else 1.0
         position = s.position_m
         s = replace(s, axis_yaw_rad=self._geometry(s).axis_yaw)  # the line of sight, if that is the axis, stays put
         for _ in range(int(c.rollout_s / dt)):
@@ -308,7 +311,8 @@ class ApproachPlanner:
                 entry_heading = abs(wrap_angle(heading - g.axis_yaw))
                 return g.cross if entry_heading <= math.radians(c.entry_heading_limit_deg) else None
             yaw, speed = self._steer(now, g)
-            heading += _clamp(wrap_angle(yaw - heading), -turn, turn)
+            setpoint += _clamp(wrap_angle(yaw - setpoint), -turn, turn)
+            heading += wrap_angle(setpoint - heading) * lag
             water += (speed - water) * min(1.0, dt / c.speed_time_constant_s)
             h = _unit(heading)
             position = (position[0] + dt * (water * h[0] + s.current_mps[0]),
