@@ -2,7 +2,11 @@
 ring's centre, range and bearing from it.
 
 For a continuous strip an ellipse is fitted to its outer and to its inner outline; their
-mean is the LED centre line, unbiased by halo or threshold. For separate LEDs or arcs the
+mean is the LED centre line, unbiased by halo or threshold. A lit funnel as bright as the
+strip on one side fills part of the hole: its outline then fits an ellipse many times worse
+than the outer one does and would squash the centre line (a head-on ring read 20-30 deg
+tilted). The outer ellipse, scaled to where most of the hole's outline lies, is then the
+inner outline. For separate LEDs or arcs the
 ellipse goes through all their outlines. A ring the frame cuts gets a circle through
 what is visible (LED centres, or the strip's outer edge): the bearing that turns the
 vehicle towards it, and a rougher range. The tilt-aware centre comes from
@@ -25,6 +29,9 @@ from auv_dock_guidance.vision.normalized import center_pixels, cut_shape, fit_el
 from auv_dock_guidance.vision.outline import longest_inner_run, on_border
 from auv_dock_guidance.vision.refine import Region
 from auv_dock_guidance.vision.selection import is_ring
+
+_MAX_INNER_MISFIT = 2.5  # an inner outline fitting an ellipse this many times worse than the outer is not the edge
+_INNER_EDGE_QUANTILE = 0.75  # of the hole's outline, relative to the outer ellipse: a filled part lies further in
 
 
 def fit_region(region: Region, candidates: int, frame_size: tuple[int, int], camera: CameraModel | None,
@@ -49,19 +56,26 @@ def fit_region(region: Region, candidates: int, frame_size: tuple[int, int], cam
     if cut:  # part of a ring tells its bearing, not its tilt: no ring reading
         common["visible_arc_deg"] = cut_shape(camera, region.outer, frame_size)[1]
         return circle_detection(camera, outer, marker_radius, common)
-    inner, cue_noise = None, 0.0
+    inner, cue_noise, filled = None, 0.0, False
     if region.hole is not None and is_ring(region.shape, config.selection):
         inner_fit = fit_ellipse(camera, region.hole)
         if inner_fit is not None and inner_fit[0].semi_major < outer.semi_major:
-            inner = inner_fit[0]
-            cue_noise = math.hypot(inner_fit[1], outer_fit[1])
-            common["fit_sigma"] = 0.5 * cue_noise  # the centre line is the mean of the two outlines
+            filled = inner_fit[1] > _MAX_INNER_MISFIT * outer_fit[1]
+            if filled:
+                inner = inner_edge_within(outer, plane_points(camera, region.hole))
+            else:
+                inner = inner_fit[0]
+                cue_noise = math.hypot(inner_fit[1], outer_fit[1])
+                common["fit_sigma"] = 0.5 * cue_noise  # the centre line is the mean of the two outlines
     if inner is None and not region.dotted:  # a solid blob: its outline is all we have
         return circle_detection(camera, outer, marker_radius, common)
     if inner is None:  # separate LEDs: their outlines straddle the centre line
         centre_line = outer
         solution = ring_center_solution(centre_line, marker_radius,
                                         led_points=normalized_points(camera, region.led_centers))
+    elif filled:  # the outer outline's shape, midway to the hole's edge; its centre offset tells nothing
+        centre_line = scaled(outer, 0.5 * (1.0 + inner.semi_major / outer.semi_major))
+        solution = ring_center_solution(centre_line, marker_radius)
     else:  # a continuous strip: the centre line lies midway between its two outlines
         centre_line = Ellipse(
             center_x=0.5 * (outer.center_x + inner.center_x),
@@ -94,3 +108,29 @@ def circle_detection(camera: CameraModel | None, outline: Ellipse, marker_radius
         u=u, v=v, radius_px=outline.semi_major * focal, ellipse=outline, **common,
         pose=pose_from_circle((outline.center_x, outline.center_y), outline.semi_major, marker_radius_m),
     )
+
+
+def plane_points(camera: CameraModel | None, points_px: np.ndarray) -> np.ndarray:
+    """Points on the plane `fit_ellipse` fits on: normalized with a camera, pixels without."""
+    if camera is None:
+        return points_px.astype(np.float64)
+    xy, valid = camera.pixels_to_normalized(points_px)
+    return xy[valid]
+
+
+def scaled(ellipse: Ellipse, factor: float) -> Ellipse:
+    """The ellipse grown or shrunk about its centre: a concentric circle on the same plane, nearly."""
+    return Ellipse(ellipse.center_x, ellipse.center_y, ellipse.semi_major * factor, ellipse.semi_minor * factor,
+                   ellipse.angle_rad)
+
+
+def inner_edge_within(outer: Ellipse, points: np.ndarray) -> Ellipse | None:
+    """The strip's inner edge as the outer ellipse scaled to where most of the hole's outline lies;
+    the part a lit funnel filled lies further in. None when the hole is not inside the outline."""
+    if len(points) < 8:
+        return None
+    c, s = math.cos(outer.angle_rad), math.sin(outer.angle_rad)
+    d = points - np.array([outer.center_x, outer.center_y])
+    size = np.hypot((d[:, 0] * c + d[:, 1] * s) / outer.semi_major, (-d[:, 0] * s + d[:, 1] * c) / outer.semi_minor)
+    factor = float(np.quantile(size, _INNER_EDGE_QUANTILE))
+    return scaled(outer, factor) if 0.0 < factor < 1.0 else None

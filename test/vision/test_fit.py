@@ -3,6 +3,7 @@ import math
 import numpy as np
 import pytest
 
+from auv_dock_guidance.geometry.pose import circles_from_ellipse
 from auv_dock_guidance.vision.config import DetectorConfig
 from auv_dock_guidance.vision.fit import fit_region
 from auv_dock_guidance.vision.refine import Region
@@ -27,6 +28,37 @@ def test_a_strips_two_outlines_give_its_centre_line_and_range(camera):
     assert detection.found and detection.is_ring
     assert math.hypot(detection.u - truth[0], detection.v - truth[1]) < 0.5
     assert detection.pose.range_m == pytest.approx(6.0, rel=0.01)
+
+
+def _tilted_circle_px(camera, center_m, normal, radius_fn, count=360):
+    """Pixels of a closed curve on the plane through ``center_m`` with ``normal``, at ``radius_fn(angle)``."""
+    normal = np.asarray(normal, float) / np.linalg.norm(normal)
+    e1 = np.cross(normal, (0.0, 1.0, 0.0))
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(normal, e1)
+    t = np.linspace(0, 2 * math.pi, count, endpoint=False)
+    r = radius_fn(t)
+    points = np.asarray(center_m) + (r * np.cos(t))[:, None] * e1 + (r * np.sin(t))[:, None] * e2
+    pixels, valid = camera.project(points)
+    return pixels[valid]
+
+
+@pytest.mark.parametrize("tilt_deg", [0.0, 25.0])
+def test_a_strips_hole_a_lit_funnel_fills_on_one_side_does_not_squash_the_ring(camera, tilt_deg):
+    """A funnel as bright as the strip on its left merges with it: the hole's outline runs far inside
+    the strip's inner edge there. The ring's tilt and range must still be those of the strip."""
+    center = np.array([0.4, -0.1, 3.5])
+    tilt = math.radians(tilt_deg)
+    normal = (math.sin(tilt), 0.0, -math.cos(tilt))  # towards the camera, turned about the vertical
+    outer = _tilted_circle_px(camera, center, normal, lambda t: np.full_like(t, 0.37))
+    hole = _tilted_circle_px(camera, center, normal, lambda t: np.where(np.cos(t) < -0.5, 0.18, 0.33))  # left third
+    shape = CandidateShape(area_px=2e4, center_v=500, radius_px=150, axis_ratio=1, hole_fraction=0.7, edge_support=1)
+    detection = fit_region(Region(shape, 100.0, outer, hole), 1, (camera.height, camera.width), camera,
+                           DetectorConfig(marker_radius_m=0.35))
+    assert detection.pose.range_m == pytest.approx(float(np.linalg.norm(center)), rel=0.02)
+    errors = [math.degrees(math.acos(min(1.0, abs(float(np.dot(c.normal, normal))))))
+              for c in circles_from_ellipse(detection.ellipse, 0.35)]
+    assert min(errors) < 3.0, errors
 
 
 def test_a_ring_the_frame_cuts_gets_the_circle_through_its_visible_leds(camera):
