@@ -38,3 +38,24 @@ def median(values: np.ndarray) -> float:
     ordered = np.sort(values)
     mid = len(ordered) // 2
     return float(ordered[mid]) if len(ordered) % 2 else float((ordered[mid - 1] + ordered[mid]) / 2)
+
+
+def detrended_deviation(sides: list[np.ndarray]) -> float:
+    """Median absolute deviation of a window's border sides (8-bit) about a straight line along
+    each: light falling off with depth across a large window is not noise, texture is.
+
+    Each side's line runs through the medians of its two halves (robust to a light crossing it).
+    """
+    residuals = []
+    for side in sides:
+        n = len(side)
+        if n < 4:
+            continue
+        half = n // 2
+        first, second = pixel_median(side[:half]), pixel_median(side[half:])
+        line = first + (second - first) * (np.arange(n) - (half - 1) / 2.0) / (n / 2.0)
+        residuals.append(side.astype(np.float64) - line)
+    if not residuals:
+        return 0.0
+    values = np.concatenate(residuals)
+    return float(np.median(np.abs(values - np.median(values))))

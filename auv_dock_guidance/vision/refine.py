@@ -20,7 +20,7 @@ from auv_dock_guidance.geometry.camera import CameraModel
 from auv_dock_guidance.vision.config import DetectorConfig, lens_scale, min_ring_radius_px
 from auv_dock_guidance.vision.edges import bilateral, improved_canny
 from auv_dock_guidance.vision.image_input import intensity
-from auv_dock_guidance.vision.levels import median_and_mad
+from auv_dock_guidance.vision.levels import detrended_deviation, pixel_median
 from auv_dock_guidance.vision.normalized import cut_shape, outline_residual
 from auv_dock_guidance.vision.outline import on_border, pixel_area, to_full
 from auv_dock_guidance.vision.search import Box
@@ -62,12 +62,16 @@ class Refiner:
         if min(gray.shape) < 4:
             return []
         smooth = bilateral(gray, c.bilateral)
-        border = np.concatenate([smooth[0], smooth[-1], smooth[:, 0], smooth[:, -1]])
-        background, deviation = median_and_mad(border)
-        noise = max(0.5, 1.4826 * deviation)
+        # A near ring's window spans the water's fall-off in light from the surface down: that is
+        # not noise (it put the floor above white), but the floor stands above the window's
+        # brightest side, or the top of an empty window's fall-off reads as a light.
+        sides = [smooth[0], smooth[-1], smooth[:, 0], smooth[:, -1]]
+        background = pixel_median(np.concatenate(sides))
+        noise = max(0.5, 1.4826 * detrended_deviation(sides))
         _, peak, _, _ = cv2.minMaxLoc(cv2.GaussianBlur(smooth, (3, 3), 0))
         fraction = self.threshold.fraction_for(radius_estimate / self.lens_scale)
-        level = self.threshold.level(background, peak, noise, fraction)
+        floor = self.threshold.floor(max(pixel_median(side) for side in sides), noise)
+        level = max(self.threshold.level(background, peak, noise, fraction), floor)
         if peak <= level:
             rejected.append("too faint")
             return []

@@ -237,6 +237,22 @@ def test_a_distant_ring_whose_leds_bloom_into_one_glow_is_found_from_its_leds():
         assert math.hypot(detection.u - truth.center_px[0], detection.v - truth.center_px[1]) < 0.1 * truth.radius_px
 
 
+@pytest.mark.parametrize("range_m", [2.4, 1.6])
+def test_a_near_strip_is_found_where_the_water_darkens_across_its_window(range_m):
+    """The open-water dock of closed-loop episode 32 (a strip, no funnel) head-on: the water
+    darkens by 50 grey from the top of the ring's window to its bottom. Taken for noise, that
+    fall-off put the threshold's floor above white, and the ring went unseen from 2.4 m in."""
+    world = episode_world(EpisodeConfig(scenario="open-water"), np.random.default_rng(32))
+    camera = paper_camera().scaled(0.5)
+    axis_yaw = math.atan2(world.dock_axis[1], world.dock_axis[0])
+    p = world.dock_center - (range_m + world.camera_offset_m) * np.array([math.cos(axis_yaw), math.sin(axis_yaw), 0.0])
+    pose = VehiclePose(float(p[0]), float(p[1]), float(p[2]), yaw=-axis_yaw)
+    image, truth = render(camera, world.scene_for(pose, seed=1))
+    detection = Detector(camera, DetectorConfig(marker_radius_m=world.entrance_radius_m)).detect(image)
+    assert detection.found, detection.reason
+    assert detection.pose.range_m == pytest.approx(truth.position_m[2], rel=0.05)
+
+
 @pytest.mark.parametrize("off_axis_deg", [0.0, 25.0])
 def test_a_lit_funnel_close_in_is_not_taken_for_a_small_ring_round_its_hub(off_axis_deg):
     """The open-water dock of closed-loop episode 108 (a strip round a funnel lit brighter than
