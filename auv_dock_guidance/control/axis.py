@@ -22,14 +22,8 @@ far out the halo rounds the ring's image, so a tilted dock looks head-on again a
 and a hundred such views, wrong the same way, outvoted the few close ones that see the tilt
 (their errors are not independent, so their number is no evidence).
 
-Views from closer than ``closest_view_m`` are left out too: the entry was checked on the axis
-seen until then, and there the ring fills the frame, where a bright funnel's rim and blooming
-LEDs bend its outline (seeds 35 and 137 of the open-water run: the axis estimate moved 4-11 deg in
-the last 2.5 m, and the vehicle turned onto a line beside the entrance).
-
 Some dock looks bias every view in the same way their scatter does not show (the outline of a
-strip round a shaded, lit funnel before `vision/fit.py` told a filled hole: errors 4-5 times
-the reported sigma, measured in the loop).
+strip round a shaded, lit funnel: errors 4-5 times the reported sigma, measured in the loop).
 When the views scatter about the first choice more than their sigmas allow, all sigmas are
 scaled by that excess (the Birge ratio, taken from the upper quartile) and the choice is made
 again: clusters a few sigmas apart merge instead of taking turns as the estimate, and the
@@ -57,7 +51,6 @@ class AxisConfig:
     reported_sigma_scale: float = 1.5  # the detector's tilt sigma times this (measured errors: median 1, p90 2.4)
     max_sigma_deg: float = 15.0  # observations less certain than this are left out (10 deg as reported)
     superseded_ratio: float = 2.0  # views from farther than this times the present range are left out
-    closest_view_m: float = 3.0  # views from closer are left out: the estimate stays as the entry check saw it
     outlier_sigmas: float = 3.0  # an observation further than this from both candidates counts as an outlier
     min_observations: int = 5
     min_margin: float = 16.0  # cost (squared sigmas) by which the mirror must explain the observations worse
@@ -91,7 +84,7 @@ class AxisEstimator:
         c = self.config
         dock = dock_from_camera(target, attitude)
         distance = float(np.linalg.norm(dock))
-        if distance < c.closest_view_m or not all(math.isfinite(v) for v in ring_normal_optical):
+        if distance <= 0 or not all(math.isfinite(v) for v in ring_normal_optical):
             return
         normal = optical_to_level(ring_normal_optical, attitude)  # points out of the dock, towards the camera
         normal = normal / max(float(np.linalg.norm(normal)), 1e-12)
