@@ -280,22 +280,23 @@ class Guidance:
         if target is not None:
             rejected = self._refusal(now_s, target)
             target = None if rejected else target
-        sighted = target is not None
-        if sighted and self._last_frame_s is not None:  # the caller reports frames: a detection is one
+        seen = target is not None
+        if seen and self._last_frame_s is not None:  # the caller reports frames: a detection is one
             self._last_frame_s = now_s
         if target is not None and self.state is State.TERMINAL and not self._plausible_in_terminal(target):
             target = None  # seen, but a partial ring: hold the last good goal
         if attitude is not None and (
                 not attitude.is_valid() or not _fresh(now_s, attitude.stamp_s, c.telemetry_timeout_s)):
             attitude = None
-        if c.follows_path and attitude is not None:
+        tracking = c.follows_path and attitude is not None
+        if tracking:
             self._own_motion(dt, attitude)
             if target is not None and not self._observe(target, attitude):
-                target, sighted = None, False  # an outlier to the track: not acted on unless its like restart it
-        if sighted:
+                target, seen = None, False  # an outlier to the track: not acted on unless its like restart the track
+        if seen:
             self._last_seen_s = now_s
         plan = None
-        if c.follows_path and attitude is not None:
+        if tracking:
             # The entry is checked with each new detection, and once on crossing the commit distance
             # even without one (the ring may be out of sight just then).
             plan = self._plan(attitude, predict_entry=target is not None or not self._entry_checked,
