@@ -280,23 +280,20 @@ class Guidance:
         if target is not None:
             rejected = self._refusal(now_s, target)
             target = None if rejected else target
-        seen = target is not None
-        if seen and self._last_frame_s is not None:  # the caller reports frames: a detection is one
-            self._last_frame_s = now_s
+        if target is not None:
+            self._last_seen_s = now_s
+            if self._last_frame_s is not None:  # the caller reports frames: a detection is one
+                self._last_frame_s = now_s
         if target is not None and self.state is State.TERMINAL and not self._plausible_in_terminal(target):
             target = None  # seen, but a partial ring: hold the last good goal
         if attitude is not None and (
                 not attitude.is_valid() or not _fresh(now_s, attitude.stamp_s, c.telemetry_timeout_s)):
             attitude = None
-        tracking = c.follows_path and attitude is not None
-        if tracking:
-            self._own_motion(dt, attitude)
-            if target is not None and not self._observe(target, attitude):
-                target, seen = None, False  # an outlier to the track: not acted on unless its like restart the track
-        if seen:
-            self._last_seen_s = now_s
         plan = None
-        if tracking:
+        if c.follows_path and attitude is not None:
+            self._own_motion(dt, attitude)
+            if target is not None:
+                self._observe(target, attitude)
             # The entry is checked with each new detection, and once on crossing the commit distance
             # even without one (the ring may be out of sight just then).
             plan = self._plan(attitude, predict_entry=target is not None or not self._entry_checked,
@@ -350,15 +347,12 @@ class Guidance:
         if self._dock_below_m is not None:  # climbing leaves the dock deeper below
             self._dock_below_m += self._water_speed * dt * math.sin(attitude.pitch_rad)
 
-    def _observe(self, target: Target, attitude: Attitude) -> bool:
-        """Correct the track, the dock's depth and its axis with a detection; False for an outlier."""
-        if not self.tracker.update(target, attitude):
-            return False
+    def _observe(self, target: Target, attitude: Attitude) -> None:
+        self.tracker.update(target, attitude)
         camera_below = float(level_from_body(attitude)[2, 0]) * self.config.tracker.camera_ahead_m
         self._dock_below_m = float(dock_from_camera(target, attitude)[2]) + camera_below
         if self.config.axis_alignment and target.axis_optical is not None:
             self.axis.observe(target, target.axis_optical, attitude)
-        return True
 
     def _seen_within(self, now_s: float, limit_s: float) -> bool:
         return self._last_seen_s is not None and now_s - self._last_seen_s <= limit_s

@@ -116,7 +116,7 @@ class DockTracker:
         self._rejected = [(z + motion, r + q[:2, :2]) for z, r in self._rejected]  # carried on as the track is
 
     def update(self, target: Target, attitude: Attitude) -> bool:
-        """Correct with a detection; False if it was rejected as an outlier (and did not restart the track)."""
+        """Correct with a detection; False if it was rejected as an outlier."""
         c = self.config
         dock = dock_from_camera(target, attitude)
         lever = level_from_body(attitude) @ np.array([c.camera_ahead_m, 0.0, 0.0])
@@ -133,10 +133,9 @@ class DockTracker:
             self.rejected += 1
             self._rejected = [(old, r_old) for old, r_old in self._rejected
                               if _agree(z - old, r + r_old, c.gate_chi2)] + [(z, r)]
-            if len(self._rejected) < c.max_rejections:
-                return False
-            self._start(z, r)  # they agree: the track was wrong, this one starts it again
-            return True
+            if len(self._rejected) >= c.max_rejections:
+                self._start(z, r)
+            return False
         k = self._p @ h.T @ np.linalg.inv(s)
         self._x = self._x + k @ innovation
         self._p = (np.eye(5) - k @ h) @ self._p
