@@ -214,8 +214,11 @@ def arc_factors(visible_arc_deg: float) -> tuple[float, float]:
 
 
 def _ratio_sigma(observation: RingObservation, radius_n: float) -> float:
-    """Standard error of the ellipse's axis ratio b / a (its second harmonic, like the centre's first)."""
-    return 2.0 * observation.fit_sigma / radius_n if math.isfinite(observation.fit_sigma) else math.inf
+    """Standard error of the ellipse's axis ratio b / a (its second harmonic, like the centre's first);
+    inf when there is no error to give (no fit scatter, or a pose not in front of the camera)."""
+    if not (math.isfinite(observation.fit_sigma) and observation.fit_sigma >= 0.0 and radius_n > 0.0):
+        return math.inf
+    return 2.0 * observation.fit_sigma / radius_n
 
 
 def _ambiguity(solutions: list[CircleSolution]) -> tuple[np.ndarray, float]:

@@ -18,6 +18,7 @@ from auv_dock_guidance.geometry.uncertainty import (
     arc_factors,
     dock_pose,
     observation_of,
+    tilt_sigma_rad,
 )
 from auv_dock_guidance.sim.scene import SceneSpec, render
 from auv_dock_guidance.vision.detector import Detector
@@ -109,6 +110,14 @@ def test_without_a_ring_fit_the_orientation_is_unknown():
 def test_a_pose_behind_the_camera_is_refused():
     with pytest.raises(ValueError, match="in front of the camera"):
         dock_pose(_observation(-1.0))
+
+
+def test_a_tilt_read_from_a_pose_behind_the_camera_has_no_certainty_rather_than_an_error():
+    """The closed loop asks for the tilt's sigma of every ring fit; one fit placed the ring behind
+    the camera (episode 119 or so of a 200-episode run) and the square root of a negative ratio
+    error ended the run."""
+    assert tilt_sigma_rad(_observation(-1.0), (0.0, 0.0, -1.0)) == math.inf
+    assert math.isfinite(tilt_sigma_rad(_observation(5.0), (0.0, 0.0, -1.0)))
 
 
 def test_reported_deviations_match_the_detector_on_rendered_frames():
