@@ -25,7 +25,7 @@ from auv_dock_guidance.geometry.camera import CameraModel
 from auv_dock_guidance.geometry.pose import Ellipse, pose_from_circle, pose_from_point, ring_center_solution
 from auv_dock_guidance.vision.config import DetectorConfig
 from auv_dock_guidance.vision.detection import Detection
-from auv_dock_guidance.vision.normalized import center_pixels, cut_shape, fit_ellipse, normalized_points
+from auv_dock_guidance.vision.normalized import center_pixels, cut_shape, fit_ellipse, normalized_points, plane_points
 from auv_dock_guidance.vision.outline import longest_inner_run, on_border
 from auv_dock_guidance.vision.refine import Region
 from auv_dock_guidance.vision.selection import is_ring
@@ -108,14 +108,6 @@ def circle_detection(camera: CameraModel | None, outline: Ellipse, marker_radius
         u=u, v=v, radius_px=outline.semi_major * focal, ellipse=outline, **common,
         pose=pose_from_circle((outline.center_x, outline.center_y), outline.semi_major, marker_radius_m),
     )
-
-
-def plane_points(camera: CameraModel | None, points_px: np.ndarray) -> np.ndarray:
-    """Points on the plane `fit_ellipse` fits on: normalized with a camera, pixels without."""
-    if camera is None:
-        return points_px.astype(np.float64)
-    xy, valid = camera.pixels_to_normalized(points_px)
-    return xy[valid]
 
 
 def scaled(ellipse: Ellipse, factor: float) -> Ellipse:

@@ -70,6 +70,14 @@ def normalized_points(camera: CameraModel | None, points_px: np.ndarray | None) 
     return xy[valid]
 
 
+def plane_points(camera: CameraModel | None, points_px: np.ndarray) -> np.ndarray:
+    """Points on the plane `fit_ellipse` fits on: normalized with a camera, pixels without."""
+    if camera is None:
+        return points_px.astype(np.float64)
+    xy, valid = camera.pixels_to_normalized(points_px)
+    return xy[valid]
+
+
 def center_pixels(camera: CameraModel | None, x: float, y: float) -> tuple[float, float, float]:
     """A normalized point as distorted image pixels, and the focal length used."""
     if camera is None:
