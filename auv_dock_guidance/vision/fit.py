@@ -56,26 +56,25 @@ def fit_region(region: Region, candidates: int, frame_size: tuple[int, int], cam
     if cut:  # part of a ring tells its bearing, not its tilt: no ring reading
         common["visible_arc_deg"] = cut_shape(camera, region.outer, frame_size)[1]
         return circle_detection(camera, outer, marker_radius, common)
-    inner, cue_noise, filled = None, 0.0, False
+    inner, inner_scale, cue_noise = None, None, 0.0
     if region.hole is not None and is_ring(region.shape, config.selection):
         inner_fit = fit_ellipse(camera, region.hole)
         if inner_fit is not None and inner_fit[0].semi_major < outer.semi_major:
-            filled = inner_fit[1] > _MAX_INNER_MISFIT * outer_fit[1]
-            if filled:
-                inner = inner_edge_within(outer, plane_points(camera, region.hole))
+            if inner_fit[1] > _MAX_INNER_MISFIT * outer_fit[1]:  # a lit funnel filled part of the hole
+                inner_scale = inner_edge_scale(outer, plane_points(camera, region.hole))
             else:
                 inner = inner_fit[0]
                 cue_noise = math.hypot(inner_fit[1], outer_fit[1])
                 common["fit_sigma"] = 0.5 * cue_noise  # the centre line is the mean of the two outlines
-    if inner is None and not region.dotted:  # a solid blob: its outline is all we have
+    if inner_scale is not None:  # the outer outline's shape, midway to the hole's edge; its centre offset tells nothing
+        centre_line = scaled(outer, 0.5 * (1.0 + inner_scale))
+        solution = ring_center_solution(centre_line, marker_radius)
+    elif inner is None and not region.dotted:  # a solid blob: its outline is all we have
         return circle_detection(camera, outer, marker_radius, common)
-    if inner is None:  # separate LEDs: their outlines straddle the centre line
+    elif inner is None:  # separate LEDs: their outlines straddle the centre line
         centre_line = outer
         solution = ring_center_solution(centre_line, marker_radius,
                                         led_points=normalized_points(camera, region.led_centers))
-    elif filled:  # the outer outline's shape, midway to the hole's edge; its centre offset tells nothing
-        centre_line = scaled(outer, 0.5 * (1.0 + inner.semi_major / outer.semi_major))
-        solution = ring_center_solution(centre_line, marker_radius)
     else:  # a continuous strip: the centre line lies midway between its two outlines
         centre_line = Ellipse(
             center_x=0.5 * (outer.center_x + inner.center_x),
@@ -116,13 +115,13 @@ def scaled(ellipse: Ellipse, factor: float) -> Ellipse:
                    ellipse.angle_rad)
 
 
-def inner_edge_within(outer: Ellipse, points: np.ndarray) -> Ellipse | None:
-    """The strip's inner edge as the outer ellipse scaled to where most of the hole's outline lies;
-    the part a lit funnel filled lies further in. None when the hole is not inside the outline."""
+def inner_edge_scale(outer: Ellipse, points: np.ndarray) -> float | None:
+    """The strip's inner edge as a share of the outer ellipse: where most of the hole's outline
+    lies, since the part a lit funnel filled lies further in. None when the hole is not inside."""
     if len(points) < 8:
         return None
     c, s = math.cos(outer.angle_rad), math.sin(outer.angle_rad)
     d = points - np.array([outer.center_x, outer.center_y])
     size = np.hypot((d[:, 0] * c + d[:, 1] * s) / outer.semi_major, (-d[:, 0] * s + d[:, 1] * c) / outer.semi_minor)
     factor = float(np.quantile(size, _INNER_EDGE_QUANTILE))
-    return scaled(outer, factor) if 0.0 < factor < 1.0 else None
+    return factor if 0.0 < factor < 1.0 else None

@@ -70,8 +70,8 @@ class Refiner:
         noise = max(0.5, 1.4826 * detrended_deviation(sides))
         _, peak, _, _ = cv2.minMaxLoc(cv2.GaussianBlur(smooth, (3, 3), 0))
         fraction = self.threshold.fraction_for(radius_estimate / self.lens_scale)
-        floor = self.threshold.floor(max(pixel_median(side) for side in sides), noise)
-        level = max(self.threshold.level(background, peak, noise, fraction), floor)
+        level = self.threshold.level(background, peak, noise, fraction,
+                                     floor_above=max(pixel_median(side) for side in sides))
         if peak <= level:
             rejected.append("too faint")
             return []

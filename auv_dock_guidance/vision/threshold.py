@@ -77,9 +77,12 @@ class AdaptiveThreshold:
         step = self.config.max_step
         return min(self._fraction + step, max(self._fraction - step, target))
 
-    def level(self, background: float, peak: float, noise_sigma: float, fraction: float) -> float:
-        """The grey level for a share, never below the floor."""
-        return max(self.floor(background, noise_sigma), background + fraction * (peak - background))
+    def level(self, background: float, peak: float, noise_sigma: float, fraction: float,
+              floor_above: float | None = None) -> float:
+        """The grey level for a share, never below the floor. The floor stands above the background
+        or above ``floor_above`` if brighter: a window's brightest side, where light falls off across it."""
+        base = background if floor_above is None else max(background, floor_above)
+        return max(self.floor(base, noise_sigma), background + fraction * (peak - background))
 
     def floor(self, background: float, noise_sigma: float) -> float:
         """The lowest threshold: this far above the background, against over-detection."""

@@ -38,6 +38,14 @@ def test_floor_keeps_the_threshold_above_noise():
     assert t.level(background=50, peak=250, noise_sigma=1, fraction=0.5) == pytest.approx(150)
 
 
+def test_floor_stands_above_the_brightest_side_of_a_window():
+    """Light falling off across a window: the floor follows its bright side, the share its median."""
+    t = AdaptiveThreshold(ThresholdConfig(floor_grey=8, floor_noise_sigmas=5))
+    assert t.level(background=50, peak=90, noise_sigma=3, fraction=0.2, floor_above=80) == pytest.approx(95)
+    assert t.level(background=50, peak=250, noise_sigma=3, fraction=0.5, floor_above=80) == pytest.approx(150)
+    assert t.level(background=50, peak=60, noise_sigma=3, fraction=0.2, floor_above=40) == pytest.approx(65)
+
+
 def test_inconsistent_shares_are_rejected():
     with pytest.raises(ConfigError, match="fraction_far"):
         ThresholdConfig(fraction_far=0.7, fraction_near=0.6)
