@@ -292,8 +292,8 @@ class Guidance:
         plan = None
         if c.follows_path and attitude is not None:
             self._own_motion(dt, attitude)
-            if target is not None:
-                self._observe(target, attitude)
+            if target is not None and not self._observe(target, attitude):
+                target = None  # another light far off the track: not acted on
             # The entry is checked with each new detection, and once on crossing the commit distance
             # even without one (the ring may be out of sight just then).
             plan = self._plan(attitude, predict_entry=target is not None or not self._entry_checked,
@@ -347,12 +347,17 @@ class Guidance:
         if self._dock_below_m is not None:  # climbing leaves the dock deeper below
             self._dock_below_m += self._water_speed * dt * math.sin(attitude.pitch_rad)
 
-    def _observe(self, target: Target, attitude: Attitude) -> None:
-        self.tracker.update(target, attitude)
+    def _observe(self, target: Target, attitude: Attitude) -> bool:
+        """Correct the track, the dock's depth and its axis with a detection. False for one the tracker
+        rejects at a range far off its own: acting on it sent a vehicle 2.5 m out back (a lamp read 36 m
+        off). Other rejected ones are acted on: where the track lags a gusty current they are the dock."""
+        if not self.tracker.update(target, attitude) and self.tracker.far_off(target, attitude):
+            return False
         camera_below = float(level_from_body(attitude)[2, 0]) * self.config.tracker.camera_ahead_m
         self._dock_below_m = float(dock_from_camera(target, attitude)[2]) + camera_below
         if self.config.axis_alignment and target.axis_optical is not None:
             self.axis.observe(target, target.axis_optical, attitude)
+        return True
 
     def _seen_within(self, now_s: float, limit_s: float) -> bool:
         return self._last_seen_s is not None and now_s - self._last_seen_s <= limit_s

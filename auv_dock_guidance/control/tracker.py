@@ -63,6 +63,7 @@ class TrackerConfig:
     range_noise_rel: float = 0.02  # measurement noise along it, relative to range
     gate_chi2: float = 13.8  # innovation gate (2 dof, 99.9 %): larger jumps are rejected
     max_rejections: int = 3  # this many rejected detections that agree with each other restart the position
+    far_off_factor: float = 2.0  # a rejected detection this many times nearer or farther than the track: another light
     estimate_current: bool = True  # False: the position follows each detection, no drift estimate
 
 
@@ -119,8 +120,7 @@ class DockTracker:
         """Correct with a detection; False if it was rejected as an outlier."""
         c = self.config
         dock = dock_from_camera(target, attitude)
-        lever = level_from_body(attitude) @ np.array([c.camera_ahead_m, 0.0, 0.0])
-        z = -(dock[:2] + lever[:2])  # reference point relative to the dock
+        z = self._position_from(dock, attitude)
         r = self._measurement_noise(dock)
         if self._x is None or not c.estimate_current:
             self._start(z, r)
@@ -141,6 +141,21 @@ class DockTracker:
         self._p = (np.eye(5) - k @ h) @ self._p
         self._rejected = []
         return True
+
+    def far_off(self, target: Target, attitude: Attitude) -> bool:
+        """The detection puts the dock ``far_off_factor`` times nearer or farther than the track does:
+        a lamp or a reflection, not the track lagging a gust (that moves the dock sideways, not by a factor)."""
+        if self._x is None:
+            return False
+        seen = float(np.linalg.norm(self._position_from(dock_from_camera(target, attitude), attitude)))
+        tracked = float(np.linalg.norm(self._x[:2]))
+        factor = self.config.far_off_factor
+        return not tracked / factor <= seen <= tracked * factor
+
+    def _position_from(self, dock_level: np.ndarray, attitude: Attitude) -> np.ndarray:
+        """The reference point relative to the dock, from the dock as the camera sees it."""
+        lever = level_from_body(attitude) @ np.array([self.config.camera_ahead_m, 0.0, 0.0])
+        return -(dock_level[:2] + lever[:2])
 
     def _start(self, z: np.ndarray, r: np.ndarray) -> None:
         """Position from this detection; the current and speed error estimates are kept if there are any."""

@@ -49,9 +49,11 @@ class KinematicAuv:
         return self.position + AHEAD * np.array([math.cos(self.heading), math.sin(self.heading)])
 
 
-def fly(guidance, auv, seconds=200.0, dt=0.05, frame_every=2, unseen_within_m=0.0, until=(State.ABORT,)):
+def fly(guidance, auv, seconds=200.0, dt=0.05, frame_every=2, unseen_within_m=0.0, until=(State.ABORT,),
+        seen=sighting):
     """Guidance with the kinematic vehicle until the nose crosses the entrance plane (x = 0) or a state
-    in ``until`` is reached; the ring is seen when within 0.5 rad of the nose and beyond ``unseen_within_m``."""
+    in ``until`` is reached; the ring is seen (as ``seen`` reports it) when within 0.5 rad of the nose
+    and beyond ``unseen_within_m``."""
     t = 0.0
     for i in range(int(seconds / dt)):
         attitude = Attitude(t, 0.0, 0.0, auv.heading, 8.0)
@@ -60,7 +62,7 @@ def fly(guidance, auv, seconds=200.0, dt=0.05, frame_every=2, unseen_within_m=0.
             guidance.frame_processed(t)
             in_view = abs(math.remainder(math.atan2(-auv.nose[1], -auv.nose[0]) - auv.heading, 2 * math.pi)) < 0.5
             if in_view and np.linalg.norm(auv.nose) > unseen_within_m:
-                target = sighting(auv.position, auv.heading, t)
+                target = seen(auv.position, auv.heading, t)
         out = guidance.update(t, target, attitude)
         if out.demands is not None:
             auv.step(out.demands.yaw_setpoint_rad, out.demands.speed_setpoint_mps, dt)
@@ -310,6 +312,35 @@ def test_the_entry_is_checked_on_crossing_the_commit_distance_even_with_the_ring
     auv = KinematicAuv(start, math.atan2(-start[1], -start[0]), (0.0, 0.0))
     out = fly(Guidance(), auv, seconds=60.0, unseen_within_m=3.5, until=(State.ABORT, State.RETRY))
     assert out.state is State.RETRY, out.transition
+
+
+def test_one_wild_detection_close_in_does_not_send_the_vehicle_back():
+    """A lamp read as a ring 36 m off, 5 m above, while the track holds the dock 2.6 m ahead: a detection
+    the tracker rejects at a range far off its own must not move the dock's depth or trigger the entry check."""
+    wild = []
+
+    def seen(position, heading, t):
+        target = sighting(position, heading, t)
+        if target.range_m < 2.6 and not wild:
+            wild.append(t)
+            return Target(t, 36.7, 6.6, -5.0)
+        return target
+
+    guidance = Guidance()
+    auv = KinematicAuv((-10.0, 0.2), 0.0, (0.0, 0.0))
+    out = fly(guidance, auv, seconds=60.0, until=(State.ABORT, State.RETRY), seen=seen)
+    assert wild and guidance.retries == 0 and out.state is not State.RETRY, out.transition
+    assert auv.nose[0] >= 0.0 and abs(auv.nose[1]) < 0.05
+
+
+def test_a_rejected_detection_at_the_tracks_range_is_still_the_dock():
+    """The track lagging a gust rejects detections a little to the side: they are not far off."""
+    tracker = DockTracker()
+    tracker.update(Target(0.0, 5.0, 0.0, 0.0), Attitude(0.0, 0.0, 0.0, 0.0))
+    aside = Target(0.1, 5.0, 1.5, 0.0)
+    assert not tracker.update(aside, Attitude(0.1, 0.0, 0.0, 0.0))
+    assert not tracker.far_off(aside, Attitude(0.1, 0.0, 0.0, 0.0))
+    assert tracker.far_off(Target(0.2, 36.7, 6.6, -5.0), Attitude(0.2, 0.0, 0.0, 0.0))
 
 
 def test_below_the_dock_the_pitch_goal_climbs_to_its_depth_ahead_and_is_level_on_it():

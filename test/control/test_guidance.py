@@ -41,13 +41,16 @@ def test_search_cannot_jump_to_terminal():
 
 def test_one_wild_close_detection_far_out_does_not_start_the_terminal_phase():
     """A detector outlier (a blob read as a ring 1.5 m away while the dock is 20 m out) must
-    not end the approach; two in a row below the terminal range do."""
-    g = Guidance()
-    run(g, 1.0, lambda t: target(t, range_m=20.0))
-    outs = run(g, 1.0, lambda t: target(t, range_m=1.5 if 1.0 <= t < 1.03 else 20.0), start=1.0)
-    assert all(o.state is State.TRACK for o in outs)
-    outs = run(g, 0.1, lambda t: target(t, range_m=2.0), start=2.0)
-    assert [o.state for o in outs[:2]] == [State.TRACK, State.TERMINAL]
+    not end the approach; two in a row below the terminal range do. With the tracker, a jump by
+    a factor counts once three agree and restart the track."""
+    for config, frames_to_terminal in ((PAPER, 2), (GuidanceConfig(), 4)):
+        g = Guidance(config)
+        run(g, 1.0, lambda t: target(t, range_m=20.0))
+        outs = run(g, 1.0, lambda t: target(t, range_m=1.5 if 1.0 <= t < 1.03 else 20.0), start=1.0)
+        assert all(o.state is State.TRACK for o in outs)
+        outs = run(g, 0.2, lambda t: target(t, range_m=2.0), start=2.0)
+        states = [o.state for o in outs]
+        assert states.index(State.TERMINAL) == frames_to_terminal - 1, states
 
 
 def test_marker_to_the_right_turns_right_and_below_pitches_down():
