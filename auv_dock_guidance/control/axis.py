@@ -50,7 +50,8 @@ class AxisConfig:
     noise_deg_per_m2: float = 0.01  # ...growing with the square of the range (used alone when none is reported)
     reported_sigma_scale: float = 1.5  # the detector's tilt sigma times this (measured errors: median 1, p90 2.4)
     max_sigma_deg: float = 15.0  # observations less certain than this are left out (10 deg as reported)
-    superseded_ratio: float = 2.0  # views from farther than this times the present range are left out
+    superseded_ratio: float = 2.0  # views from farther than this times the present range are left out...
+    kept_within_m: float = 5.0  # ...unless from within this (close in, twice the range is a metre of approach)
     outlier_sigmas: float = 3.0  # an observation further than this from both candidates counts as an outlier
     min_observations: int = 5
     min_margin: float = 16.0  # cost (squared sigmas) by which the mirror must explain the observations worse
@@ -113,7 +114,7 @@ class AxisEstimator:
     def _estimated(self) -> AxisEstimate | None:
         c = self.config
         obs = np.array(self._observations)  # called after each observation: never empty
-        obs = obs[obs[:, 4] <= c.superseded_ratio * obs[-1, 4]]
+        obs = obs[obs[:, 4] <= max(c.superseded_ratio * obs[-1, 4], c.kept_within_m)]
         if len(obs) < c.min_observations or self._line_of_sight_rad is None:
             return self._estimate  # too few views from about here yet: the last estimate stands
         recent = obs[-c.candidates:]

@@ -119,6 +119,27 @@ def test_the_axis_is_told_from_its_mirror_once_the_view_moves():
     assert estimate.known and abs(estimate.yaw_rad) < math.radians(1)
 
 
+def test_a_few_wild_views_close_in_do_not_override_the_views_from_a_few_metres():
+    """Seed 137: inside 2.5 m views of a ring leaving the frame read the axis 8-11 deg off, and with
+    every view from beyond twice the range left out they were all the estimate had near 1.5 m; views
+    from within 5 m are kept."""
+    def view(camera_range_m, side_m, axis_yaw_deg, t):
+        target = sighting((-camera_range_m - AHEAD, side_m), 0.0, t, axis_yaw=math.radians(axis_yaw_deg))
+        return replace(target, axis_sigma_rad=math.radians(1.0))
+
+    axis = AxisEstimator()
+    t = 0.0
+    for i in range(36):  # 6 m to 2.5 m out, 0.6 m beside the axis: good views
+        t += 0.1
+        target = view(6.0 - 0.1 * i, 0.6 - 0.012 * i, 0.0, t)
+        axis.observe(target, target.axis_optical, Attitude(t, 0.0, 0.0, 0.0))
+    for i in range(12):  # 2.5 m to 1.4 m: 11 deg off
+        t += 0.1
+        target = view(2.5 - 0.1 * i, 0.15, 11.0, t)
+        axis.observe(target, target.axis_optical, Attitude(t, 0.0, 0.0, 0.0))
+    assert abs(axis.estimate().yaw_rad) < math.radians(3.0)
+
+
 def test_views_biased_beyond_their_own_sigma_do_not_take_turns_as_the_axis():
     """Blocks of views 6 deg either side of the axis, each claiming 0.7 deg (a lit funnel's shaded outline
     biases them alike): the estimate stays between the blocks, with a sigma that owns the scatter."""
