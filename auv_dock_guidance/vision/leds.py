@@ -45,6 +45,7 @@ _LIT_LEVEL = 235.0  # mean-channel level of a region at full scale (white, satur
 _LIT_MIN_RADIUS = 6.0  # copy pixels: a lit region smaller than this is an LED, not a funnel
 _RIM_OPENING_SHARE = 0.35  # round opening / radius of the lit region: fits between vanes, not into an LED
 _SURROUND_RADII = 2.5  # blob radii out to the circle that must be mostly darker
+_HALO_REACH = 5.0  # search-copy pixels: a bloom's halo reaches this far; a small core is also looked at from there
 _SURROUND_SAMPLES = 16
 _ANGLES = np.linspace(0.0, 2.0 * math.pi, _SURROUND_SAMPLES, endpoint=False)
 _GLOW_INNER, _GLOW_OUTER = 1.2, 2.5  # annulus where a blob's glow is measured, in blob radii
@@ -194,14 +195,25 @@ def _surround_contrast(gray: np.ndarray, x: np.ndarray, y: np.ndarray, radius: n
     a point source standing clear of them. It is not where most of a circle a few blob radii
     out is nearly as bright, or where the core stands above it by less than a third of its
     height above the water (a spot on a lit region); the LEDs of a ring that blooms into one
-    glow fail these tests too, which is why such lights are kept, to complete a ring. NaN
-    where the circle is bright at two opposite points and dark between them: a line passing
-    through (a cable, a rim, a fixture's ring, a caustic; a light beside a lit region is
-    bright on one side only)."""
+    glow fail these tests too, which is why such lights are kept, to complete a ring. A bright
+    LED's halo can reach past that circle when the blob's scale is its core's, a pixel or two,
+    so a light that stands clear on a circle beyond the halo is a point source too. NaN where the near circle
+    is bright at two opposite points and dark between them: a line passing through (a cable,
+    a rim, a fixture's ring, a caustic; a light beside a lit region is bright on one side only)."""
+    near = np.maximum(radius, 1.0)
+    height, clear, line = _on_circle(gray, x, y, _SURROUND_RADII * near, water)
+    _, clear_beyond_halo, _ = _on_circle(gray, x, y, np.maximum(_SURROUND_RADII * near, _HALO_REACH), water)
+    return np.where(line, np.nan, height), clear | (clear_beyond_halo & ~line)
+
+
+def _on_circle(gray: np.ndarray, x: np.ndarray, y: np.ndarray, reach: np.ndarray,
+               water: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per point, on the circle of radius ``reach`` round it: the core's height above the
+    circle's median, whether it stands clear of the circle (a point source seen from there),
+    and whether a line crosses the circle."""
     h, w = gray.shape
-    reach = _SURROUND_RADII * np.maximum(radius, 1.0)[:, None]
-    xs = np.clip(np.round(x[:, None] + reach * np.cos(_ANGLES)).astype(np.int64), 0, w - 1)
-    ys = np.clip(np.round(y[:, None] + reach * np.sin(_ANGLES)).astype(np.int64), 0, h - 1)
+    xs = np.clip(np.round(x[:, None] + reach[:, None] * np.cos(_ANGLES)).astype(np.int64), 0, w - 1)
+    ys = np.clip(np.round(y[:, None] + reach[:, None] * np.sin(_ANGLES)).astype(np.int64), 0, h - 1)
     circle = gray[ys, xs]
     around = np.sort(circle, axis=1)
     core = gray[y, x]
@@ -212,9 +224,9 @@ def _surround_contrast(gray: np.ndarray, x: np.ndarray, y: np.ndarray, radius: n
     across = (bright & np.roll(bright, half, axis=1)
               & ~np.roll(bright, quarter, axis=1) & ~np.roll(bright, -quarter, axis=1))
     line = across.any(axis=1)
-    point_source = ((core - darkest > 0) & (core - typical >= 0.5 * (core - darkest))
-                    & (core - typical >= (core - water) / 3.0) & ~line)
-    return np.where(line, np.nan, core - typical), point_source
+    clear = ((core - darkest > 0) & (core - typical >= 0.5 * (core - darkest))
+             & (core - typical >= (core - water) / 3.0) & ~line)
+    return core - typical, clear, line
 
 
 def refined(image: np.ndarray, blob: LedBlob, water_bgr: np.ndarray | None = None) -> LedBlob:

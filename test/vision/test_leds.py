@@ -77,9 +77,17 @@ def _ring_in_one_glow(count=9, radius=32.0, centre=(200.0, 150.0)):
     return _u8(image)
 
 
-def test_leds_blooming_into_one_glow_are_found_though_few_stand_clear_of_it():
-    image = _ring_in_one_glow()
-    blobs = find_leds(image, 1.0, 31)
-    on_ring = [b for b in blobs if abs(np.hypot(b.u - 200, b.v - 150) - 32) < 4]
+def _on_ring(blobs, radius, centre=(200.0, 150.0)):
+    return [b for b in blobs if abs(np.hypot(b.u - centre[0], b.v - centre[1]) - radius) < 4]
+
+
+def test_blooming_leds_of_a_ring_stand_clear_beyond_their_halo():
+    on_ring = _on_ring(find_leds(_ring_in_one_glow(radius=32.0), 1.0, 31), 32.0)
     assert len(on_ring) == 9
-    assert sum(b.isolated for b in on_ring) < 9  # some sit in their neighbours' glow: they complete, not begin
+    assert all(b.isolated for b in on_ring)  # a circle beyond the halo is darker all round: each may seed
+
+
+def test_leds_blooming_into_one_glow_are_found_though_none_stands_clear_of_it():
+    on_ring = _on_ring(find_leds(_ring_in_one_glow(radius=18.0), 1.0, 31), 18.0)
+    assert len(on_ring) == 9
+    assert not any(b.isolated for b in on_ring)  # each sits in its neighbours' glow: they complete, not begin
