@@ -6,12 +6,9 @@ detector can only guess which (``Detection.ring_normal`` is then its guess). The
 does not move, so its true axis is the same direction from every viewpoint while the
 mirror image swings with the line of sight. Each observation therefore contributes both
 candidates; the estimate is the direction that explains most observations (each by the
-nearer of its two candidates), and it counts as known only once the other side explains
-them clearly worse (the vehicle has seen the dock from more than one direction), or when
-the two coincide (the vehicle is on the axis). The other side is where the views put it:
-each view's mirror is about its own line of sight, so after the sight has swung their
-cluster lies off the mirror about the present one, and measured against that mirror a
-few close views (seed 157) could rule out the side that was right.
+nearer of its two candidates), and it counts as known only once the mirror about the
+present line of sight explains them clearly worse (the vehicle has seen the dock from
+more than one direction), or when the two coincide (the vehicle is on the axis).
 
 Each observation is weighed by the detector's own standard deviation of the tilt
 (``Target.axis_sigma_rad``, from the outline's scatter; inflated by ``reported_sigma_scale``
@@ -131,10 +128,7 @@ class AxisEstimator:
             known = True
         else:
             mirror = wrap_angle(2 * sight - best)
-            # the other side as the views see it: each view's mirror is about its own line of sight,
-            # so their cluster lies off the mirror about the present one when the sight has swung
-            other = self._refined(obs, mirror)
-            best_cost, mirror_cost = self._costs(obs, np.array([best, other]))
+            best_cost, mirror_cost = self._costs(obs, np.array([best, mirror]))
             swing = _wrapped(obs[:, 3] - sight)
             viewed_from_apart = float(np.max(swing) - np.min(swing)) >= math.radians(c.min_view_change_deg)
             known = viewed_from_apart and mirror_cost - best_cost >= c.min_margin
