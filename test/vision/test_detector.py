@@ -221,18 +221,37 @@ def test_the_threshold_follows_the_range_whatever_the_lens(camera):
 
 
 
+LOOP_CAMERA = paper_camera().scaled(0.5)  # the closed loop's camera (960x540)
+
+
+def _open_water_world(seed):
+    """The dock, water and light of closed-loop open-water episode ``seed``."""
+    return episode_world(EpisodeConfig(scenario="open-water"), np.random.default_rng(seed))
+
+
+def _facing_the_dock(world, distance_m, off_axis_deg=0.0, turned_deg=0.0):
+    """The vehicle ``distance_m`` out from the dock's centre on a line ``off_axis_deg`` off its axis,
+    the nose along that line turned by ``turned_deg``."""
+    line_yaw = math.atan2(world.dock_axis[1], world.dock_axis[0]) + math.radians(off_axis_deg)
+    p = world.dock_center - distance_m * np.array([math.cos(line_yaw), math.sin(line_yaw), 0.0])
+    return VehiclePose(float(p[0]), float(p[1]), float(p[2]), yaw=-line_yaw - math.radians(turned_deg))
+
+
+def _detect_in_open_water(world, pose, noise):
+    """One frame of the loop's camera from ``pose`` (``noise``: the draw of the camera noise), detected afresh."""
+    image, truth = render(LOOP_CAMERA, world.scene_for(pose, seed=noise))
+    return Detector(LOOP_CAMERA, DetectorConfig(marker_radius_m=world.entrance_radius_m)).detect(image), truth
+
+
 def test_a_distant_ring_whose_leds_bloom_into_one_glow_is_found_from_its_leds():
     """The open-water dock of closed-loop episode 22 (nine white LEDs round a lit hub) 11 m
     straight ahead, in six draws of the camera noise: the LEDs' halos merge into one glow
     with no sharp outline, and most LEDs do not stand clear of it. The few that do begin
     the ring and the lights in the glow complete it (before: found in none of the six)."""
-    world = episode_world(EpisodeConfig(scenario="open-water"), np.random.default_rng(22))
-    camera = paper_camera().scaled(0.5)
-    p = world.dock_center - 11.0 * world.dock_axis
-    pose = VehiclePose(float(p[0]), float(p[1]), float(p[2]), yaw=-math.atan2(world.dock_axis[1], world.dock_axis[0]))
+    world = _open_water_world(22)
+    pose = _facing_the_dock(world, 11.0)
     for noise in range(1, 7):
-        image, truth = render(camera, world.scene_for(pose, seed=noise))
-        detection = Detector(camera, DetectorConfig(marker_radius_m=world.entrance_radius_m)).detect(image)
+        detection, truth = _detect_in_open_water(world, pose, noise)
         assert detection.found and detection.led_count == 9 and len(detection.leds) >= 6, (noise, detection.reason)
         assert math.hypot(detection.u - truth.center_px[0], detection.v - truth.center_px[1]) < 0.1 * truth.radius_px
 
@@ -242,13 +261,8 @@ def test_a_near_strip_is_found_where_the_water_darkens_across_its_window(range_m
     """The open-water dock of closed-loop episode 32 (a strip, no funnel) head-on: the water
     darkens by 50 grey from the top of the ring's window to its bottom. Taken for noise, that
     fall-off put the threshold's floor above white, and the ring went unseen from 2.4 m in."""
-    world = episode_world(EpisodeConfig(scenario="open-water"), np.random.default_rng(32))
-    camera = paper_camera().scaled(0.5)
-    axis_yaw = math.atan2(world.dock_axis[1], world.dock_axis[0])
-    p = world.dock_center - (range_m + world.camera_offset_m) * np.array([math.cos(axis_yaw), math.sin(axis_yaw), 0.0])
-    pose = VehiclePose(float(p[0]), float(p[1]), float(p[2]), yaw=-axis_yaw)
-    image, truth = render(camera, world.scene_for(pose, seed=1))
-    detection = Detector(camera, DetectorConfig(marker_radius_m=world.entrance_radius_m)).detect(image)
+    world = _open_water_world(32)
+    detection, truth = _detect_in_open_water(world, _facing_the_dock(world, range_m + world.camera_offset_m), 1)
     assert detection.found, detection.reason
     assert detection.pose.range_m == pytest.approx(truth.position_m[2], rel=0.05)
 
@@ -259,14 +273,10 @@ def test_a_lit_funnel_close_in_is_not_taken_for_a_small_ring_round_its_hub(off_a
     the sensor takes, four dark vanes and a hub) 3.8 m away: the funnel is one white disc, and
     the plateau's spots between the vanes round the hub looked like a ring of LEDs a seventh of
     the entrance's size (range 23 m instead of 3.8; the episode's tracker followed it)."""
-    world = episode_world(EpisodeConfig(scenario="open-water"), np.random.default_rng(108))
-    camera = paper_camera().scaled(0.5)
-    axis_yaw = math.atan2(world.dock_axis[1], world.dock_axis[0]) + math.radians(off_axis_deg)
-    p = world.dock_center - 3.8 * np.array([math.cos(axis_yaw), math.sin(axis_yaw), 0.0])
-    pose = VehiclePose(float(p[0]), float(p[1]), float(p[2]), yaw=-axis_yaw)
+    world = _open_water_world(108)
+    pose = _facing_the_dock(world, 3.8, off_axis_deg=off_axis_deg)
     for noise in range(1, 4):
-        image, truth = render(camera, world.scene_for(pose, seed=noise))
-        detection = Detector(camera, DetectorConfig(marker_radius_m=world.entrance_radius_m)).detect(image)
+        detection, truth = _detect_in_open_water(world, pose, noise)
         assert detection.found, (noise, detection.reason)
         assert detection.radius_px == pytest.approx(truth.radius_px, rel=0.15), noise
 
@@ -278,15 +288,11 @@ def test_leds_on_a_lit_funnels_rim_near_the_frames_edge_are_found(turned_deg):
     found as bumps on the funnel's outline, whose size is only their part outside the rim: six
     of them lie 35 of those sizes apart, and the ring was taken for specks that happen to line
     up (the episode lost the dock for 2.5 s at 5 m and drifted into it sideways)."""
-    world = episode_world(EpisodeConfig(scenario="open-water"), np.random.default_rng(73))
-    camera = paper_camera().scaled(0.5)
-    axis_yaw = math.atan2(world.dock_axis[1], world.dock_axis[0])
-    p = world.dock_center - 5.5 * world.dock_axis
-    pose = VehiclePose(float(p[0]), float(p[1]), float(p[2]), yaw=-axis_yaw - math.radians(turned_deg))
+    world = _open_water_world(73)
+    pose = _facing_the_dock(world, 5.5, turned_deg=turned_deg)
     for noise in range(1, 4):
-        image, truth = render(camera, world.scene_for(pose, seed=noise))
-        assert truth.center_px[0] > 0.8 * camera.width
-        detection = Detector(camera, DetectorConfig(marker_radius_m=world.entrance_radius_m)).detect(image)
+        detection, truth = _detect_in_open_water(world, pose, noise)
+        assert truth.center_px[0] > 0.8 * LOOP_CAMERA.width
         assert detection.found and detection.led_count == 6, (noise, detection.reason)
         assert math.hypot(detection.u - truth.center_px[0], detection.v - truth.center_px[1]) < 0.1 * truth.radius_px
 
@@ -298,14 +304,10 @@ def test_leds_blooming_beside_a_lit_funnel_begin_the_ring(range_m):
     halos reach past the circle that size puts round them, so none stood clear and none could
     begin a ring; with no sharp outline round the glow the ring went unseen from 5.6 to 3.5 m
     (found in 5 of 70 frames from 6 to 3.4 m head-on before, 41 after)."""
-    world = episode_world(EpisodeConfig(scenario="open-water"), np.random.default_rng(48))
-    camera = paper_camera().scaled(0.5)
-    p = world.dock_center - (range_m + world.camera_offset_m) * world.dock_axis
-    pose = VehiclePose(float(p[0]), float(p[1]), float(p[2]),
-                       yaw=-math.atan2(world.dock_axis[1], world.dock_axis[0]))
+    world = _open_water_world(48)
+    pose = _facing_the_dock(world, range_m + world.camera_offset_m)
     for noise in range(1, 4):
-        image, truth = render(camera, world.scene_for(pose, seed=noise))
-        detection = Detector(camera, DetectorConfig(marker_radius_m=world.entrance_radius_m)).detect(image)
+        detection, truth = _detect_in_open_water(world, pose, noise)
         assert detection.found and detection.led_count == 9, (noise, detection.reason)
         assert math.hypot(detection.u - truth.center_px[0], detection.v - truth.center_px[1]) < 0.1 * truth.radius_px
         assert detection.pose.range_m == pytest.approx(truth.position_m[2], rel=0.05)
