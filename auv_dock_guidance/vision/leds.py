@@ -197,12 +197,13 @@ def _surround_contrast(gray: np.ndarray, x: np.ndarray, y: np.ndarray, radius: n
     height above the water (a spot on a lit region); the LEDs of a ring that blooms into one
     glow fail these tests too, which is why such lights are kept, to complete a ring. A bright
     LED's halo can reach past that circle when the blob's scale is its core's, a pixel or two,
-    so a light that stands clear on a circle beyond the halo is a point source too. NaN where the near circle
-    is bright at two opposite points and dark between them: a line passing through (a cable,
-    a rim, a fixture's ring, a caustic; a light beside a lit region is bright on one side only)."""
-    near = np.maximum(radius, 1.0)
-    height, clear, line = _on_circle(gray, x, y, _SURROUND_RADII * near, water)
-    _, clear_beyond_halo, _ = _on_circle(gray, x, y, np.maximum(_SURROUND_RADII * near, _HALO_REACH), water)
+    so a light that stands clear on a circle beyond the halo is a point source too. NaN where
+    the near circle is bright at two opposite points and dark between them: a line passing
+    through (a cable, a rim, a fixture's ring, a caustic; a light beside a lit region is
+    bright on one side only)."""
+    near = _SURROUND_RADII * np.maximum(radius, 1.0)
+    height, clear, line = _on_circle(gray, x, y, near, water)
+    _, clear_beyond_halo, _ = _on_circle(gray, x, y, np.maximum(near, _HALO_REACH), water)
     return np.where(line, np.nan, height), clear | (clear_beyond_halo & ~line)
 
 
