@@ -57,7 +57,7 @@ class AxisConfig:
     min_margin: float = 16.0  # cost (squared sigmas) by which the mirror must explain the observations worse
     min_view_change_deg: float = 4.0  # ...after the line of sight has swung at least this much among them
     coincide_deg: float = 3.0  # candidates closer than this to the line of sight: no mirror ambiguity
-    memory: int = 300  # observations kept (when full, the least certain goes)
+    memory: int = 300  # observations kept (when full, the farthest goes)
     candidates: int = 60  # the most recent observations' directions are tried as the estimate
     max_tilt_deg: float = 75.0  # a normal further than this from the line of sight is not a ring's
 
@@ -78,10 +78,15 @@ class AxisEstimator:
         # candidate a, its mirror b, sigma, line of sight (rad), range (m)
         self._observations: list[tuple[float, float, float, float, float]] = []
         self._line_of_sight_rad: float | None = None  # direction from the vehicle to the dock
+        self._present_range_m = 0.0  # views from farther than superseded_ratio times this are left out
         self._chosen: float | None = None  # the last estimate: kept over its mirror until the mirror is clearly better
         self._estimate: AxisEstimate | None = None
 
-    def observe(self, target: Target, ring_normal_optical: tuple[float, float, float], attitude: Attitude) -> None:
+    def observe(self, target: Target, ring_normal_optical: tuple[float, float, float], attitude: Attitude,
+                present_range_m: float | None = None) -> None:
+        """Add one view. ``present_range_m``: the tracked range, if any, to cut the views against; a
+        detection's own range can alternate between two readings of one dock (its LED ring at 7.5 m, its
+        outline at 5 m), and the kept views swung with it between 90 and 190."""
         c = self.config
         dock = dock_from_camera(target, attitude)
         distance = float(np.linalg.norm(dock))
@@ -99,12 +104,14 @@ class AxisEstimator:
             return
         mirror = 2.0 * float(normal @ sight) * sight - normal
         self._line_of_sight_rad = math.atan2(dock[1], dock[0])
+        self._present_range_m = distance if present_range_m is None else present_range_m
         self._observations.append((math.atan2(-normal[1], -normal[0]), math.atan2(-mirror[1], -mirror[0]), sigma,
                                    self._line_of_sight_rad, distance))
         if len(self._observations) > c.memory:
-            # The least certain goes, not the oldest: the dock does not move, and a retry's minute of vague
-            # views from 7 m must not push out the few close ones that saw the tilt.
-            del self._observations[max(range(len(self._observations)), key=lambda i: self._observations[i][2])]
+            # The farthest goes, not the oldest: the dock does not move, and a retry's minute of vague views
+            # from 7 m must not push out the few close ones that saw the tilt. Nor the least certain: close
+            # views scatter more (sigma 5-7 deg at 3 m against 2-3 at 9 m), yet only they see the tilt.
+            del self._observations[max(range(len(self._observations)), key=lambda i: self._observations[i][4])]
         self._estimate = self._estimated()
 
     def estimate(self) -> AxisEstimate | None:
@@ -114,7 +121,7 @@ class AxisEstimator:
     def _estimated(self) -> AxisEstimate | None:
         c = self.config
         obs = np.array(self._observations)  # called after each observation: never empty
-        obs = obs[obs[:, 4] <= max(c.superseded_ratio * obs[-1, 4], c.kept_within_m)]
+        obs = obs[obs[:, 4] <= max(c.superseded_ratio * self._present_range_m, c.kept_within_m)]
         if len(obs) < c.min_observations or self._line_of_sight_rad is None:
             return self._estimate  # too few views from about here yet: the last estimate stands
         recent = obs[-c.candidates:]

@@ -356,7 +356,9 @@ class Guidance:
         camera_below = float(level_from_body(attitude)[2, 0]) * self.config.tracker.camera_ahead_m
         self._dock_below_m = float(dock_from_camera(target, attitude)[2]) + camera_below
         if self.config.axis_alignment and target.axis_optical is not None:
-            self.axis.observe(target, target.axis_optical, attitude)
+            fix = self.tracker.fix()
+            tracked_range_m = math.hypot(*fix.position_m) if fix is not None else None
+            self.axis.observe(target, target.axis_optical, attitude, tracked_range_m)
         return True
 
     def _seen_within(self, now_s: float, limit_s: float) -> bool:
