@@ -458,7 +458,7 @@ def test_close_views_outweigh_many_far_ones_that_the_halo_made_look_head_on():
 
 def test_a_long_wait_in_one_place_does_not_forget_the_close_views_that_told_the_axis():
     """Close views from either side of the axis tell it from its mirror; a retry then waits 7 m out for
-    longer than the memory holds. The vague views go first, so the axis stays known."""
+    longer than the memory holds. The far views go first, so the axis stays known."""
     axis = AxisEstimator()
     for target, attitude in _sweep((-4.0, 1.2), (-2.5, -0.6), 20, 0.0, lambda heading: 0.0, 0.01):
         axis.observe(target, target.axis_optical, attitude)
@@ -469,6 +469,40 @@ def test_a_long_wait_in_one_place_does_not_forget_the_close_views_that_told_the_
         axis.observe(target, target.axis_optical, Attitude(target.stamp_s, 0, 0, heading))
     estimate = axis.estimate()
     assert estimate.known and abs(estimate.yaw_rad) < math.radians(1)
+
+
+def test_a_full_memory_makes_room_for_close_views_though_they_scatter_more():
+    """Seed 157: the memory filled with views from 9 m (sigma 2 deg, made head-on by the halo), and each
+    close view (sigma 6 deg) was the least certain, so it went at once and the estimate stayed that of
+    the far views. The farthest go first."""
+    axis = AxisEstimator()
+    far = _sweep((-9.5, 2.4), (-8.5, 2.0), axis.config.memory, 0.0, lambda heading: heading, math.radians(2.0))
+    for target, attitude in far:
+        axis.observe(target, target.axis_optical, attitude)
+    for target, attitude in _sweep((-4.0, 1.2), (-2.5, -0.6), 30, 40.0, lambda heading: 0.0, math.radians(6.0)):
+        axis.observe(target, target.axis_optical, attitude)
+    assert abs(axis.estimate().yaw_rad) < math.radians(3)
+
+
+def test_the_views_are_cut_against_the_range_given_not_each_frames_own():
+    """Seed 179: one dock read as its LED ring at 7.5 m and as its outline at 5 m in turn. Cut at twice
+    each frame's own range, 150 views from 11-12 m were in the estimate one frame and out the next, and
+    the estimate swung with them; cut against the tracked range, the views kept stay the same."""
+    def swing(present_range_m):
+        axis = AxisEstimator()
+        for target, attitude in _sweep((-12.0, 3.0), (-11.0, 2.6), 150, 0.0, lambda heading: heading,
+                                       math.radians(2.0)):
+            axis.observe(target, target.axis_optical, attitude, present_range_m)
+        yaws = []
+        for i in range(40):
+            distance, t = (7.5 if i % 2 == 0 else 5.0), 20.0 + 0.1 * i
+            target = replace(sighting((-distance - AHEAD, 1.2), 0.0, t), axis_sigma_rad=math.radians(2.0))
+            axis.observe(target, target.axis_optical, Attitude(t, 0, 0, 0.0), present_range_m)
+            yaws.append(axis.estimate().yaw_rad)
+        return float(np.ptp(yaws[10:]))
+
+    assert swing(None) > math.radians(5)
+    assert swing(6.5) < math.radians(1)
 
 
 def test_views_less_certain_than_the_limit_are_left_out():
