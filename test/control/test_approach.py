@@ -354,6 +354,34 @@ def test_one_wild_detection_close_in_does_not_send_the_vehicle_back():
     assert auv.nose[0] >= 0.0 and abs(auv.nose[1]) < 0.05
 
 
+def test_one_ring_read_low_close_in_does_not_move_the_docks_depth():
+    """Seed 145: at 2.5 m one ring put the dock 19 cm deeper than it was; taken as it came, the vehicle
+    dived for it and entered 34 cm low. The dock's depth is the median of the recent detections'."""
+    wild, pitches = [], []
+
+    def seen(position, heading, t):
+        target = sighting(position, heading, t)
+        if target.range_m < 2.6 and not wild:
+            wild.append(t)
+            return replace(target, offset_y_m=0.19)  # optical y is down
+        return target
+
+    guidance = Guidance()
+    update = guidance.update
+
+    def recorded(*args, **kwargs):
+        out = update(*args, **kwargs)
+        if wild and out.plan is not None and out.plan.pitch_rad is not None:
+            pitches.append(out.plan.pitch_rad)
+        return out
+
+    guidance.update = recorded
+    auv = KinematicAuv((-10.0, 0.2), 0.0, (0.0, 0.0))
+    fly(guidance, auv, seconds=60.0, seen=seen)
+    assert wild and pitches
+    assert max(abs(p) for p in pitches) < math.radians(2.0)
+
+
 def test_a_rejected_detection_at_the_tracks_range_is_still_the_dock():
     """The track lagging a gust rejects detections a little to the side: they are not far off."""
     tracker = DockTracker()
