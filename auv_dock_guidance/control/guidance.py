@@ -208,8 +208,8 @@ class Guidance:
         self._run_since_sighting = 0.0
         self._last_update_s: float | None = None
         self._target_gate = StampGate()
-        self._dock_below_m: float | None = None  # the entrance centre below the reference point (level frame)
         self._dock_depths: list[tuple[float, float]] = []  # the entrance centre's depth by recent detections, range
+        self._dock_depth_m: float | None = None  # their weighted median
         self._entry_checked = False  # the entry was predicted since the vehicle came within the commit distance
         self._faced_since: float | None = None  # RETRY: facing the dock by the track since
 
@@ -351,8 +351,6 @@ class Guidance:
         self._water_speed += (steady - self._water_speed) * min(1.0, dt / self.config.speed_time_constant_s)
         run = self._water_speed * dt * math.cos(attitude.pitch_rad)
         self.tracker.predict(dt, (run * math.cos(attitude.yaw_rad), run * math.sin(attitude.yaw_rad)))
-        if self._dock_depths:
-            self._dock_below_m = self._dock_depth_m() - attitude.depth_m
 
     def _observe(self, target: Target, attitude: Attitude) -> bool:
         """Correct the track, the dock's depth and its axis with a detection. False for one the tracker
@@ -364,14 +362,14 @@ class Guidance:
         seen_below = float(dock_from_camera(target, attitude)[2]) + camera_below
         self._dock_depths = [*self._dock_depths[-(_DOCK_DEPTH_MEMORY - 1):],
                              (attitude.depth_m + seen_below, max(target.range_m, 1.0))]
-        self._dock_below_m = self._dock_depth_m() - attitude.depth_m
+        self._dock_depth_m = self._weighted_median_depth()
         if self.config.axis_alignment and target.axis_optical is not None:
             fix = self.tracker.fix()
             tracked_range_m = math.hypot(*fix.position_m) if fix is not None else None
             self.axis.observe(target, target.axis_optical, attitude, tracked_range_m)
         return True
 
-    def _dock_depth_m(self) -> float:
+    def _weighted_median_depth(self) -> float:
         """Median of the recent detections' dock depths, each weighed by the inverse square of its range
         (the depth error grows with range). Seed 145: one ring at 2.5 m put the dock 19 cm deeper than
         it was; taken as it came, it sent the vehicle in 34 cm low."""
@@ -394,7 +392,8 @@ class Guidance:
             water_speed_mps=self._water_speed, axis_yaw_rad=axis.yaw_rad if axis is not None else None,
             camera_ahead_m=self.config.tracker.camera_ahead_m,
             nominal_speed_mps=self.cascade.speed_for_range(range_m - self.config.tracker.camera_ahead_m),
-            axis_known=axis is not None and axis.known, dock_below_m=self._dock_below_m, dock_in_view=dock_in_view,
+            axis_known=axis is not None and axis.known, dock_in_view=dock_in_view,
+            dock_below_m=None if self._dock_depth_m is None else self._dock_depth_m - attitude.depth_m,
         )
         return self.planner.plan(situation, backing_off=self.state is State.RETRY, predict_entry=predict_entry)
 
