@@ -72,6 +72,7 @@ class CascadeConfig:
     inner_pitch: PidGains = PidGains(kp=1.5, ki=0.1, kd=0.6, output_limit=0.6)
     max_pitch_setpoint_rad: float = math.radians(25)  # absolute pitch setpoint limit
     setpoint_rate_rad_s: float = math.radians(20)  # no abrupt turns
+    integrate_within_rad: float = math.radians(5)  # the inner integrators trim only within this of the goal
     cruise_speed_mps: float = 0.41
     terminal_speed_mps: float = 0.25
     slow_down_range_m: float = 5.0  # speed falls linearly from cruise to terminal below this
@@ -158,12 +159,15 @@ class CascadeController:
         if self._goal is None:
             self.hold(attitude.yaw_rad, 0.0)
         assert self._goal is not None
+        yaw_slewing = pitch_slewing = False
         if self._setpoint is None or self._last_time is None:
             self._setpoint = self._goal
         else:
             step = c.setpoint_rate_rad_s * max(0.0, min(now_s - self._last_time, 0.5))
             yaw_delta = wrap_angle(self._goal[0] - self._setpoint[0])
             pitch_delta = self._goal[1] - self._setpoint[1]
+            behind = max(step, c.integrate_within_rad)
+            yaw_slewing, pitch_slewing = abs(yaw_delta) > behind, abs(pitch_delta) > behind
             self._setpoint = (
                 wrap_angle(self._setpoint[0] + max(-step, min(step, yaw_delta))),
                 self._setpoint[1] + max(-step, min(step, pitch_delta)),
@@ -171,7 +175,11 @@ class CascadeController:
         self._last_time = now_s
         yaw_sp, pitch_sp = self._setpoint
         yaw_error = wrap_angle(yaw_sp - attitude.yaw_rad)
-        yaw_moment = self._inner_yaw.update(yaw_sp, attitude.yaw_rad, now_s, error=yaw_error)
-        pitch_moment = self._inner_pitch.update(pitch_sp, attitude.pitch_rad, now_s)
+        # While the setpoint slews to a goal far off the error is the turn's lag, not a steady moment to
+        # trim: integrated, a 20 s turn-round wound up half the yaw authority against the turn back
+        # (seed 73). The goal's jitter on an approach (a degree a frame) is still trimmed.
+        yaw_moment = self._inner_yaw.update(yaw_sp, attitude.yaw_rad, now_s, error=yaw_error,
+                                            integrate=not yaw_slewing)
+        pitch_moment = self._inner_pitch.update(pitch_sp, attitude.pitch_rad, now_s, integrate=not pitch_slewing)
         surge = math.copysign((speed_mps / c.full_thrust_speed_mps) ** 2, speed_mps)  # drag grows with speed squared
         return Demands(surge, yaw_moment, pitch_moment, yaw_sp, pitch_sp, speed_mps)

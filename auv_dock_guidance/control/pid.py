@@ -52,11 +52,13 @@ class Pid:
     def output(self) -> float:
         return self._output
 
-    def update(self, setpoint: float, measurement: float, time_s: float, error: float | None = None) -> float:
+    def update(self, setpoint: float, measurement: float, time_s: float, error: float | None = None,
+               integrate: bool = True) -> float:
         """New output for a measurement taken at ``time_s``.
 
         ``error`` overrides ``setpoint - measurement`` (e.g. an angle difference wrapped to
-        [-pi, pi)); the derivative still acts on the measurement.
+        [-pi, pi)); the derivative still acts on the measurement. ``integrate`` False holds the
+        integral: the error is a setpoint's ramp that the output is following, not a disturbance.
         """
         g = self.gains
         if not (math.isfinite(setpoint) and math.isfinite(measurement) and math.isfinite(time_s)):
@@ -78,7 +80,7 @@ class Pid:
         self._derivative += alpha * (slope - self._derivative)
         unsaturated = g.kp * e + g.ki * self._integral + g.kd * self._derivative
         output = _clamp(unsaturated, g.output_limit)
-        if g.ki > 0:
+        if g.ki > 0 and integrate:
             self._integral += dt * (e + (output - unsaturated) / (g.ki * g.tracking_time_s))
         self._last_time, self._last_measurement = time_s, measurement
         self._output = output

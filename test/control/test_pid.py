@@ -2,6 +2,7 @@ import math
 
 import pytest
 
+from auv_dock_guidance.control.cascade import Attitude, CascadeController
 from auv_dock_guidance.control.pid import Pid, PidGains, wrap_angle
 from auv_dock_guidance.errors import ConfigError
 
@@ -39,6 +40,23 @@ def test_back_calculation_stops_windup():
         t += 0.02
         out = pid.update(-1.0, 0.0, t)
     assert out < 0
+
+
+def test_a_long_turn_round_leaves_the_full_yaw_authority_for_the_turn_back():
+    """Seed 73: turning round for 20 s the heading lagged its rate-limited setpoint by 15 deg without
+    saturating, and the integral of that lag took half the yaw authority from the turn back that followed."""
+    cascade = CascadeController()
+    yaw, t = 0.0, 0.0
+    for _ in range(1000):  # the goal stays far ahead; the vehicle follows the setpoint 15 deg behind
+        cascade.steer(yaw + math.radians(170), 0.0)
+        cascade.update(Attitude(t, 0.0, 0.0, wrap_angle(yaw), 8.0), t, 0.0)
+        yaw = cascade.setpoint[0] - math.radians(15)
+        t += 0.02
+    cascade.steer(yaw - math.radians(24), 0.0)  # the approach asks for 24 deg the other way
+    for _ in range(150):  # the setpoint slews back to the new goal; the vehicle has not turned yet
+        demands = cascade.update(Attitude(t, 0.0, 0.0, wrap_angle(yaw), 8.0), t, 0.0)
+        t += 0.02
+    assert demands.yaw < -0.45  # nearly all of the 0.6 the inner loop may ask for
 
 
 def test_repeated_or_backwards_timestamps_change_nothing():
