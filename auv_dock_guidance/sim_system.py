@@ -19,6 +19,7 @@ from std_srvs.srv import Trigger
 from auv_dock_guidance.geometry.mounting import CameraMounting
 from auv_dock_guidance.geometry.rotations import rep103_quaternion
 from auv_dock_guidance.launcher import VISION_COMBINED, NodeGroup, private_domain_id, ros_environment
+from auv_dock_guidance.nodes.common import destroy_and_shut_down
 from auv_dock_guidance.nodes.conversions import seconds_stamp, vehicle_to_pose
 from auv_dock_guidance.recording import BagRecorder, FrameTransform
 from auv_dock_guidance.sim.controller_process import ControllerProcess
@@ -97,6 +98,5 @@ class SimulatedSystem:
         """The node processes first (the bridge leaves the thrusters neutral at the controller), then our own."""
         codes = self.group.stop()
         self.controller.stop()
-        self.node.destroy_node()
-        rclpy.try_shutdown()
+        destroy_and_shut_down([self.node])
         return codes

@@ -140,6 +140,7 @@ def run_record(args: argparse.Namespace) -> int:
     import rclpy
     from rclpy.signals import SignalHandlerOptions
 
+    from auv_dock_guidance.nodes.common import destroy_and_shut_down
     from auv_dock_guidance.recording import DEBUG_TOPICS, BagRecorder
 
     topics = dict(DEBUG_TOPICS)
@@ -157,8 +158,7 @@ def run_record(args: argparse.Namespace) -> int:
         try:
             recorder = BagRecorder(node, Path(args.output), topics, args.storage)
         except DockGuidanceError as exc:
-            node.destroy_node()
-            rclpy.try_shutdown()
+            destroy_and_shut_down([node])
             fail(str(exc))
         end = time.monotonic() + args.duration if args.duration else None
         print(f"recording {len(topics)} topics on ROS domain {domain} into {args.output}; Ctrl-C stops", flush=True)
@@ -169,8 +169,7 @@ def run_record(args: argparse.Namespace) -> int:
             pass
         finally:
             recorder.close()
-            node.destroy_node()
-            rclpy.try_shutdown()
+            destroy_and_shut_down([node])
     print(json.dumps({k: v for k, v in recorder.counts.items() if v}))
     return 0
 
@@ -187,6 +186,7 @@ def _republish(bag: Path, realtime: bool) -> int:
     from rclpy.signals import SignalHandlerOptions
     from rosbags.highlevel import AnyReader
 
+    from auv_dock_guidance.nodes.common import destroy_and_shut_down
     from auv_dock_guidance.recording import message_class
 
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
@@ -218,7 +218,6 @@ def _republish(bag: Path, realtime: bool) -> int:
     except Exception as exc:
         fail(f"{bag}: {exc}", code=1)
     finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+        destroy_and_shut_down([node])
     print(f"published {count} messages")
     return 0

@@ -179,6 +179,8 @@ def latency_bench(seconds: float, rate_hz: float, combined_vision: bool = True,
     from rclpy.signals import SignalHandlerOptions
     from std_msgs.msg import Float64
 
+    from auv_dock_guidance.nodes.common import destroy_and_shut_down
+
     domain = domain if domain is not None else private_domain_id()
     with tempfile.TemporaryDirectory(prefix="auv-dock-bench-") as tmp:
         folder = Path(tmp) / "frames"
@@ -236,8 +238,7 @@ def latency_bench(seconds: float, rate_hz: float, combined_vision: bool = True,
         finally:
             group.stop()
             controller.stop()
-            node.destroy_node()
-            rclpy.try_shutdown()
+            destroy_and_shut_down([node])
     ms = np.array(latencies) * 1000.0
     return {
         "frames": seen["processed"] + seen["skipped"],  # that reached the detector (frames_captured: left the camera)

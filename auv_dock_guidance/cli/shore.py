@@ -166,7 +166,7 @@ def _monitor(args: argparse.Namespace) -> int:
     from rich.live import Live
     from std_msgs.msg import Bool, String, UInt16MultiArray
 
-    from auv_dock_guidance.nodes.common import TRANSITION_QOS
+    from auv_dock_guidance.nodes.common import TRANSITION_QOS, destroy_and_shut_down
 
     domain = watched_domain(args.domain_id)
     view = ShoreView(domain)
@@ -218,8 +218,7 @@ def _monitor(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         return 0
     finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+        destroy_and_shut_down([node])
 
 
 def _log_changes(node: Any, view: ShoreView, topics: list[str]) -> int:
@@ -252,6 +251,7 @@ def _foxglove(args: argparse.Namespace) -> int:
     import rclpy
     from rosbags.typesys import Stores, get_typestore
 
+    from auv_dock_guidance.nodes.common import destroy_and_shut_down
     from auv_dock_guidance.recording import DEBUG_TOPICS, listening_qos, message_class
 
     typestore = get_typestore(Stores.ROS2_JAZZY)
@@ -284,7 +284,6 @@ def _foxglove(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         pass
     finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+        destroy_and_shut_down([node])
         server.stop()
     return 0

@@ -183,12 +183,22 @@ def run_nodes(factories: list[Callable[[], Node]], args: list[str] | None = None
             close = getattr(node, "close", None)
             if close is not None:
                 close()  # thrusters neutral, ports closed: before anything that could hang
-        watchdog = _end_if_teardown_hangs()
+        destroy_and_shut_down(nodes)
+    return code
+
+
+def destroy_and_shut_down(nodes: Iterable[Node]) -> None:
+    """Destroy the nodes and shut rclpy down, or exit the process if that hangs (below).
+
+    Every process with a ROS context ends through here: the nodes, and the commands that
+    own them (bench, demo, bag, monitor), whose stop must be as bounded as their nodes'."""
+    watchdog = _end_if_teardown_hangs()
+    try:
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()
+    finally:
         watchdog.cancel()
-    return code
 
 
 TEARDOWN_EXIT_CODE = 3

@@ -94,6 +94,17 @@ def _as_from_a_terminal() -> None:
     signal.signal(signal.SIGHUP, signal.SIG_DFL)
 
 
+def _stacks_of(stuck: subprocess.Popen) -> str:
+    """Where a command that does not stop is stuck (cli.main registers faulthandler on SIGUSR1)."""
+    stuck.send_signal(signal.SIGUSR1)
+    time.sleep(1.0)
+    stuck.kill()
+    try:
+        return stuck.communicate(timeout=10)[1][-6000:]
+    except subprocess.TimeoutExpired:
+        return "(its output pipe is held open by its node processes)"
+
+
 def _stop_with(command: list[str], sig: signal.Signals, domain_id: int, nodes: int = 3,
                working: Callable[[], bool] = lambda: True) -> tuple[int, str, str]:
     """Start an auv-dock command, wait until its nodes run (and ``working`` holds), send ``sig``: no
@@ -113,7 +124,10 @@ def _stop_with(command: list[str], sig: signal.Signals, domain_id: int, nodes: i
             time.sleep(0.2)
         owner.send_signal(sig)
         sent = time.monotonic()
-        owner.wait(timeout=30)  # not its output yet: nodes left running would hold it open
+        try:
+            owner.wait(timeout=30)  # not its output yet: nodes left running would hold it open
+        except subprocess.TimeoutExpired:
+            pytest.fail(f"{command}: still running 30 s after {sig.name}; where:\n{_stacks_of(owner)}")
         time.sleep(max(0.0, 5.0 - (time.monotonic() - sent)))
         assert _alive(children) == [], f"{command}: node processes left after {sig.name}: {_alive(children)}"
         out, err = owner.communicate(timeout=30)
