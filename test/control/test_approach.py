@@ -258,8 +258,7 @@ def test_backing_off_where_reversing_would_lose_the_dock_it_turns_round_and_face
     turned = planner.plan(Situation(position, current, out.yaw_rad, 0.0, 0.0, AHEAD, 0.4, axis_known=True),
                           backing_off=True)
     assert turned.blind and turned.speed_mps > 0.3  # ahead once pointing the way
-    held = math.radians(c.entry_crab_deg - c.line_margin_deg)  # the line: where the drift at the planned crab leads
-    line = math.atan2(current[1] - c.max_speed_mps * math.sin(held), c.max_speed_mps * math.cos(held))
+    line = planner._line_turn(0.0, current)  # the approach line the point lies on (the axis is yaw 0)
     at_point = (-c.reposition_to_m * math.cos(line) + AHEAD, -c.reposition_to_m * math.sin(line))  # nose on it,
     # pointing away from the dock
     arriving = planner.plan(Situation(at_point, current, math.pi, 0.7, 0.0, AHEAD, 0.4, axis_known=True),
