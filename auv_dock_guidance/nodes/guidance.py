@@ -153,6 +153,7 @@ class GuidanceNode(Node):
         self.problems = InputProblems(self)
         self._imu_order = StampGate()
         self._attitude: Attitude | None = None
+        self._imu_received: float | None = None  # monotonic time the newest attitude arrived
         self._depth = 0.0
         self._docked = False
         self._clock_steps_logged = 0
@@ -180,6 +181,7 @@ class GuidanceNode(Node):
             self.problems.report("imu_stamp", f"{out_of_order} (stamped {attitude.stamp_s:.3f} s)")
             return
         self._attitude = attitude
+        self._imu_received = time.monotonic()
 
     def _on_depth(self, msg: Float64) -> None:
         if not math.isfinite(msg.data):
@@ -246,12 +248,20 @@ class GuidanceNode(Node):
             t = out.transition
             line = f"{t.previous.value} -> {t.state.value}: {t.reason}"
             self._last_transition = line
-            self.get_logger().info(line)
+            self.get_logger().info(line + (self._timing() if t.state is State.ABORT else ""))
             self.transition_pub.publish(String(data=line))
             self._publish_state()
         last = self.guidance.last_target
         # Stamp with the camera frame behind the command, so the bridge can time frame -> wire.
         self._publish(out, target.stamp_s if target is not None else (last.stamp_s if last else now))
+
+    def _timing(self) -> str:
+        """Where an abort's time went: the newest attitude's stamp and arrival, this node's last tick."""
+        now, wall = time.monotonic(), time.time()
+        stamped = f"{wall - self._attitude.stamp_s:.3f}" if self._attitude is not None else "-"
+        received = f"{now - self._imu_received:.3f}" if self._imu_received is not None else "-"
+        tick = f"{now - self._last_tick:.3f}" if self._last_tick is not None else "-"
+        return f" (newest attitude stamped {stamped} s ago, received {received} s ago; last control tick {tick} s ago)"
 
     def _publish(self, out: GuidanceOutput, stamp_s: float) -> None:
         stamp = seconds_stamp(stamp_s)

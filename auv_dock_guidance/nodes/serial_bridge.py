@@ -95,6 +95,8 @@ class SerialBridgeNode(Node):
         self._timed_stamp: float | None = None
         self._last_telemetry_seq: int | None = None
         self._connected = False
+        self._last_tick_time: float | None = None
+        self._telemetry_silent = False
         self.problems = InputProblems(self)
         self._garbage_seen = 0  # decoder errors and dropped bytes already reported
         if self.values["arm_on_start"]:
@@ -178,6 +180,7 @@ class SerialBridgeNode(Node):
             self.latency_pub.publish(Float64(data=time.time() - stamp))
 
     def _on_tick(self) -> None:
+        self._note_stalls()
         if self.mavlink is not None:
             self._tick_mavlink()
             return
@@ -193,6 +196,20 @@ class SerialBridgeNode(Node):
         if telemetry is not None and telemetry.time_ms != self._last_telemetry_seq:
             self._last_telemetry_seq = telemetry.time_ms
             self._publish_telemetry(telemetry)
+
+    def _note_stalls(self) -> None:
+        """Log a late tick (the process, or a call into the port, was held up) and telemetry that went silent."""
+        now = time.monotonic()
+        period = 1.0 / self.values["tick_rate_hz"]
+        if self._last_tick_time is not None and now - self._last_tick_time > 5 * period:
+            self.get_logger().warn(f"no tick for {now - self._last_tick_time:.3f} s (period {period:.3f} s)")
+        self._last_tick_time = now
+        age = now - self.bridge.telemetry_time if self.bridge.telemetry_time is not None else 0.0
+        if age > 0.25 and not self._telemetry_silent:
+            self.get_logger().warn(f"no telemetry from the main controller for {age:.3f} s")
+        elif age <= 0.25 and self._telemetry_silent:
+            self.get_logger().info("telemetry from the main controller again")
+        self._telemetry_silent = age > 0.25
 
     def _report_garbage(self) -> None:
         d = self.bridge.decoder.stats

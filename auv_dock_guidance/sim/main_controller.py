@@ -13,10 +13,13 @@ and the re-plugged device comes back as a new terminal behind the same link.
 
 from __future__ import annotations
 
+import array
+import fcntl
 import math
 import os
 import shutil
 import tempfile
+import termios
 import threading
 import time
 import tty
@@ -222,8 +225,14 @@ class MainControllerSim:
             time.sleep(0.001)
 
     def _read(self) -> None:
+        """Only when bytes wait: a read of an empty terminal waits for the kernel's input worker
+        (see link.transport.SerialTransport.read), and this loop keeps the telemetry's rate."""
+        if self._master < 0:
+            return  # unplugged
         try:
-            data = os.read(self._master, 4096)
+            waiting = array.array("i", [0])
+            fcntl.ioctl(self._master, termios.FIONREAD, waiting)
+            data = os.read(self._master, waiting[0]) if waiting[0] else b""
         except (BlockingIOError, OSError):
             return
         now = self.clock()

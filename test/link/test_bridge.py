@@ -178,3 +178,27 @@ def test_a_lone_write_timeout_keeps_the_port_and_timeouts_in_a_row_drop_it():
         transport.write(b"x")
     assert not transport.connected
     assert transport.stats.write_timeouts == 1 + WRITE_TIMEOUTS_LOST and transport.stats.write_errors == 1
+
+
+def test_an_empty_port_is_not_read():
+    """A read (or poll) of an empty terminal waits for the kernel's input worker: only bytes that wait are read."""
+    class Port(FlakyPort):
+        def __init__(self):
+            super().__init__()
+            self.pending, self.reads = b"", []
+
+        @property
+        def in_waiting(self):
+            return len(self.pending)
+
+        def read(self, n):
+            self.reads.append(n)
+            data, self.pending = self.pending[:n], self.pending[n:]
+            return data
+
+    port = Port()
+    transport = SerialTransport("/dev/ttyFAKE", opener=lambda name, **kw: port)
+    assert transport.read() == b"" and port.reads == []
+    port.pending = b"abc"
+    assert transport.read() == b"abc" and port.reads == [3]
+    assert transport.read() == b"" and port.reads == [3]
