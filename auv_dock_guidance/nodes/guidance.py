@@ -154,6 +154,7 @@ class GuidanceNode(Node):
         self._imu_order = StampGate()
         self._attitude: Attitude | None = None
         self._imu_received: float | None = None  # monotonic time the newest attitude arrived
+        self._tick_gap = 0.0  # s between the last two control ticks
         self._depth = 0.0
         self._docked = False
         self._clock_steps_logged = 0
@@ -230,9 +231,9 @@ class GuidanceNode(Node):
         skipped: timers run before subscriptions, and the telemetry queued meanwhile must be taken
         before its age is judged (else a scheduling hiccup here aborts as "telemetry stale")."""
         now = time.monotonic()
-        stalled = self._last_tick is not None and now - self._last_tick > 3.0 / self.values["control_rate_hz"]
+        self._tick_gap = now - self._last_tick if self._last_tick is not None else 0.0
         self._last_tick = now
-        if not stalled:
+        if self._tick_gap <= 3.0 / self.values["control_rate_hz"]:
             self._step(None)
 
     def _step(self, target: Target | None) -> None:
@@ -260,8 +261,8 @@ class GuidanceNode(Node):
         now, wall = time.monotonic(), time.time()
         stamped = f"{wall - self._attitude.stamp_s:.3f}" if self._attitude is not None else "-"
         received = f"{now - self._imu_received:.3f}" if self._imu_received is not None else "-"
-        tick = f"{now - self._last_tick:.3f}" if self._last_tick is not None else "-"
-        return f" (newest attitude stamped {stamped} s ago, received {received} s ago; last control tick {tick} s ago)"
+        return f" (newest attitude stamped {stamped} s ago, received {received} s ago; " \
+               f"control ticks {self._tick_gap:.3f} s apart)"
 
     def _publish(self, out: GuidanceOutput, stamp_s: float) -> None:
         stamp = seconds_stamp(stamp_s)
