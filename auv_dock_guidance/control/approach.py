@@ -68,7 +68,7 @@ class ApproachConfig:
     max_speed_mps: float = 0.9  # through the water; full thrust gives 1.0 but turning needs headroom
     min_speed_mps: float = 0.15
     entry_speed_mps: float = 0.5  # over ground for the last metres at least: a short blind run drifts little
-    entry_crab_deg: float = 9.0  # heading limit against the dock's axis for the last metres (docked: within 15)
+    entry_crab_deg: float = 8.0  # heading limit against the dock's axis for the last metres (docked: within 15)
     far_crab_deg: float = 30.0  # largest crab far out (the dock must stay in view)
     crab_near_m: float = 6.0  # along the axis: the entry limit applies below this (settled before the commit)...
     crab_far_m: float = 12.0  # ...and the far limit beyond this

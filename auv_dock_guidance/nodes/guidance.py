@@ -91,7 +91,7 @@ PARAMS = [
     Param("faced_unseen_timeout_s", 4.0, "facing the dock by the track after backing off, unseen this long: search (s)",
           0.5, 600.0),
     Param("max_speed_mps", 0.9, "fastest approach through the water, used against a cross current (m/s)", 0.1, 5.0),
-    Param("entry_crab_deg", 9.0, "largest heading off the dock's axis for the last metres (deg)", 1.0, 30.0),
+    Param("entry_crab_deg", 8.0, "largest heading off the dock's axis for the last metres (deg)", 1.0, 30.0),
     Param("sidestep", False, "back off sideways in reverse when the approach line is out of reach (else retry)"),
 ]
 
