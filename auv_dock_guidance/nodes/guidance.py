@@ -257,7 +257,7 @@ class GuidanceNode(Node):
         self._publish(out, target.stamp_s if target is not None else (last.stamp_s if last else now))
 
     def _timing(self) -> str:
-        """Where an abort's time went: the newest attitude's stamp and arrival, this node's last tick."""
+        """Where an abort's time went: the newest attitude's stamp and arrival, the gap between its last ticks."""
         now, wall = time.monotonic(), time.time()
         stamped = f"{wall - self._attitude.stamp_s:.3f}" if self._attitude is not None else "-"
         received = f"{now - self._imu_received:.3f}" if self._imu_received is not None else "-"

@@ -44,6 +44,8 @@ from auv_dock_guidance.nodes.common import (
 )
 from auv_dock_guidance.nodes.conversions import attitude_to_imu, stamp_seconds
 
+TELEMETRY_SILENT_S = 0.25  # telemetry older than this is logged as silent (guidance aborts at 0.5 s)
+
 PARAMS = [
     Param("port", "/dev/ttyUSB0", "serial device of the main controller", read_only=True),
     Param("baudrate", 115200, "serial speed", 1200, 4000000, read_only=True),
@@ -205,11 +207,12 @@ class SerialBridgeNode(Node):
             self.get_logger().warn(f"no tick for {now - self._last_tick_time:.3f} s (period {period:.3f} s)")
         self._last_tick_time = now
         age = now - self.bridge.telemetry_time if self.bridge.telemetry_time is not None else 0.0
-        if age > 0.25 and not self._telemetry_silent:
+        silent = age > TELEMETRY_SILENT_S
+        if silent and not self._telemetry_silent:
             self.get_logger().warn(f"no telemetry from the main controller for {age:.3f} s")
-        elif age <= 0.25 and self._telemetry_silent:
+        elif not silent and self._telemetry_silent:
             self.get_logger().info("telemetry from the main controller again")
-        self._telemetry_silent = age > 0.25
+        self._telemetry_silent = silent
 
     def _report_garbage(self) -> None:
         d = self.bridge.decoder.stats
