@@ -180,6 +180,11 @@ class CascadeController:
         # (seed 73). The goal's jitter on an approach (a degree a frame) is still trimmed.
         yaw_moment = self._inner_yaw.update(yaw_sp, attitude.yaw_rad, now_s, error=yaw_error,
                                             integrate=not yaw_slewing)
-        pitch_moment = self._inner_pitch.update(pitch_sp, attitude.pitch_rad, now_s, integrate=not pitch_slewing)
+        # Nor is a pitch the vehicle cannot hold: the righting moment keeps the nose degrees short of a steep
+        # climb's goal for as long as the climb lasts, and integrated, that error held the nose up past the
+        # dock's depth (open water, seed 35: 10 cm high at the entrance).
+        pitch_error = pitch_sp - attitude.pitch_rad
+        pitch_moment = self._inner_pitch.update(pitch_sp, attitude.pitch_rad, now_s, integrate=not pitch_slewing
+                                                and abs(pitch_error) <= c.integrate_within_rad)
         surge = math.copysign((speed_mps / c.full_thrust_speed_mps) ** 2, speed_mps)  # drag grows with speed squared
         return Demands(surge, yaw_moment, pitch_moment, yaw_sp, pitch_sp, speed_mps)

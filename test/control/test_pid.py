@@ -59,6 +59,21 @@ def test_a_long_turn_round_leaves_the_full_yaw_authority_for_the_turn_back():
     assert demands.yaw < -0.45  # nearly all of the 0.6 the inner loop may ask for
 
 
+def test_a_pitch_the_vehicle_cannot_hold_does_not_wind_up_the_pitch_integrator():
+    """A steep climb: the righting moment keeps the nose 6 deg short of the goal for 10 s. Levelling at the
+    dock's depth afterwards must not find the pitch integrator still pushing the nose up."""
+    cascade, t = CascadeController(), 0.0
+    for _ in range(500):
+        cascade.steer(0.0, math.radians(21))
+        cascade.update(Attitude(t, 0.0, math.radians(15), 0.0, 8.0), t, 0.5)
+        t += 0.02
+    cascade.steer(0.0, 0.0)
+    for _ in range(100):  # the setpoint has slewed back to level, and so has the vehicle
+        demands = cascade.update(Attitude(t, 0.0, 0.0, 0.0, 8.0), t, 0.5)
+        t += 0.02
+    assert abs(demands.pitch) < 0.02
+
+
 def test_repeated_or_backwards_timestamps_change_nothing():
     pid = Pid(PidGains(kp=1.0, ki=1.0, kd=1.0, output_limit=10.0))
     pid.update(1.0, 0.0, 0.0)
