@@ -67,7 +67,7 @@ class Verdict(StrEnum):
 class ApproachConfig:
     max_speed_mps: float = 0.9  # through the water; full thrust gives 1.0 but turning needs headroom
     min_speed_mps: float = 0.15
-    entry_speed_mps: float = 0.5  # over ground for the last metres at least: a short blind run drifts little
+    entry_speed_mps: float = 0.7  # over ground for the last metres at least: a short blind run drifts little
     entry_crab_deg: float = 8.0  # heading limit against the dock's axis for the last metres (docked: within 15)
     far_crab_deg: float = 30.0  # largest crab far out (the dock must stay in view)
     crab_near_m: float = 6.0  # along the axis: the entry limit applies below this (settled before the commit)...
@@ -84,7 +84,7 @@ class ApproachConfig:
     lookahead_max_m: float = 5.0
     line_margin_deg: float = 2.0  # of the entry limit kept in reserve (the crab plans for the rest): to correct with
     commit_m: float = 3.0  # closer than this along the axis the crossing is predicted and checked
-    entry_tolerance_m: float = 0.12  # predicted miss distance that makes the vehicle back off
+    entry_tolerance_m: float = 0.06  # predicted miss distance that makes the vehicle back off
     entry_heading_limit_deg: float = 12.0  # predicted heading off the axis at the entry that makes it back off
     rollout_s: float = 20.0  # the prediction flies the law on for at most this long...
     rollout_step_s: float = 0.1  # ...in steps of this

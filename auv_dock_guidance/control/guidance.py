@@ -92,7 +92,7 @@ class GuidanceConfig:
     terminal_range_m: float = 2.5
     terminal_confirm_frames: int = 2  # detections in a row below terminal_range_m before TERMINAL (one is an outlier)
     track_lost_timeout_s: float = 2.0  # TRACK without a detection this long -> SEARCH
-    blind_range_m: float = 1.5  # below this the ring is expected to leave the frame: go on blind
+    blind_range_m: float = 1.15  # below this the ring leaves the frame (the paper's lens: a 0.35 m ring at 1.12 m)
     terminal_lost_timeout_s: float = 3.0  # lost this long in TERMINAL while farther than blind_range_m -> ABORT
     terminal_blind_timeout_s: float = 12.0  # no detection at all this long in TERMINAL -> ABORT
     search_timeout_s: float = 120.0  # SEARCH this long -> ABORT

@@ -63,7 +63,7 @@ PARAMS = [
     Param("thrusters_file", "", "thruster allocation YAML (empty: the default four stern thrusters)", read_only=True),
     Param("confirm_frames", 3, "detections in a row before tracking", 1, 30),
     Param("terminal_range_m", 2.5, "range below which the terminal phase starts (m)", 0.3, 20.0),
-    Param("blind_range_m", 1.5, "below this range losing the ring is expected (m)", 0.1, 10.0),
+    Param("blind_range_m", 1.15, "below this range losing the ring is expected (m)", 0.1, 10.0),
     Param("track_lost_timeout_s", 2.0, "marker lost this long while tracking: back to search (s)", 0.1, 60.0),
     Param("terminal_lost_timeout_s", 3.0, "marker lost this long in terminal while it should be visible: abort (s)",
           0.1, 60.0),

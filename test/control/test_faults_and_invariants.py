@@ -129,7 +129,7 @@ def test_a_blind_terminal_run_ends_even_when_it_never_covers_the_distance():
     t = drive_to_track(g)
     for _ in range(3):
         g.frame_processed(t)
-        g.update(t, Target(t, 1.6, 0.0, 0.0), Attitude(t, 0, 0, 0))
+        g.update(t, Target(t, 1.2, 0.0, 0.0), Attitude(t, 0, 0, 0))
         t += 0.05
     assert g.state is State.TERMINAL
     while g.state is State.TERMINAL and t < 60.0:  # the ring has left the frame
