@@ -88,7 +88,10 @@ def choose(shapes: list[CandidateShape], config: SelectionConfig) -> int | None:
         rings = [i for i in pool if is_ring(shapes[i], config)]
         pool = rings or pool
     brightest = max(shapes[i].contrast for i in pool)
-    pool = [i for i in pool if shapes[i].contrast >= config.min_contrast_share * brightest]
+    # Regions no brighter than the water about them (contrast <= 0) or of no measurable contrast would all
+    # fail a share of the brightest: then the brightest stay (open water crashed here on such a frame).
+    pool = [i for i in pool if shapes[i].contrast >= config.min_contrast_share * brightest] or [
+        i for i in pool if shapes[i].contrast == brightest] or pool
     largest = max(shapes[i].area_px for i in pool)
     tied = [i for i in pool if shapes[i].area_px >= config.tie_ratio * largest]
     return max(tied, key=lambda i: shapes[i].center_v)

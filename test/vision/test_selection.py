@@ -1,3 +1,5 @@
+import pytest
+
 from auv_dock_guidance.vision.selection import CandidateShape, SelectionConfig, choose, rejection_reason
 
 
@@ -28,6 +30,11 @@ def test_a_much_dimmer_loop_is_light_the_water_made_not_the_leds():
 def test_a_reflection_nearly_as_bright_as_the_ring_still_meets_the_tie_rule():
     reflection, marker = shape(3000, 200, contrast=170.0), shape(2900, 700, contrast=120.0)
     assert choose([reflection, marker], SelectionConfig()) == 1
+
+
+@pytest.mark.parametrize("contrast", [-5.0, float("nan")])
+def test_regions_no_brighter_than_the_water_still_give_an_answer(contrast):
+    assert choose([shape(1000, 500, contrast=contrast), shape(3000, 100, contrast=contrast)], SelectionConfig()) == 1
 
 
 def test_nothing_to_choose_from():
