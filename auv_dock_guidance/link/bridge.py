@@ -116,6 +116,10 @@ class LinkBridge:
                 self.telemetry_time = self.clock()
         return frames
 
+    def telemetry_age_s(self) -> float:
+        """Seconds since the last valid telemetry; infinite before the first."""
+        return self.clock() - self.telemetry_time if self.telemetry_time is not None else math.inf
+
     @property
     def last_command_time(self) -> float:
         """Clock time of the newest command from guidance (-inf before the first)."""

@@ -44,7 +44,8 @@ from auv_dock_guidance.nodes.common import (
 )
 from auv_dock_guidance.nodes.conversions import attitude_to_imu, stamp_seconds
 
-TELEMETRY_SILENT_S = 0.25  # telemetry older than this is logged as silent (guidance aborts at 0.5 s)
+TELEMETRY_SILENT_S = 0.25  # telemetry older than this is logged as silent...
+TELEMETRY_STALE_S = 0.5  # ...and diagnosed as missing (guidance aborts at this age: its telemetry_timeout_s)
 
 PARAMS = [
     Param("port", "/dev/ttyUSB0", "serial device of the main controller", read_only=True),
@@ -206,8 +207,8 @@ class SerialBridgeNode(Node):
         if self._last_tick_time is not None and now - self._last_tick_time > 5 * period:
             self.get_logger().warn(f"no tick for {now - self._last_tick_time:.3f} s (period {period:.3f} s)")
         self._last_tick_time = now
-        age = now - self.bridge.telemetry_time if self.bridge.telemetry_time is not None else 0.0
-        silent = age > TELEMETRY_SILENT_S
+        age = self.bridge.telemetry_age_s()
+        silent = TELEMETRY_SILENT_S < age < math.inf  # none yet is not silence: the controller may still boot
         if silent and not self._telemetry_silent:
             self.get_logger().warn(f"no telemetry from the main controller for {age:.3f} s")
         elif not silent and self._telemetry_silent:
@@ -247,12 +248,12 @@ class SerialBridgeNode(Node):
     def diagnostics(self) -> DiagnosticStatus:
         """Link health: ERROR without the port or with a foreign publisher; WARN without telemetry or refusing input."""
         s, d, ts = self.bridge.stats, self.bridge.decoder.stats, self.transport.stats
-        age = time.monotonic() - self.bridge.telemetry_time if self.bridge.telemetry_time is not None else math.inf
+        age = self.bridge.telemetry_age_s()
         if self._foreign:
             level, message = DiagnosticStatus.ERROR, "foreign thruster command publisher: disarmed"
         elif not self.transport.connected:
             level, message = DiagnosticStatus.ERROR, "serial port not open"
-        elif age > 0.5:
+        elif age > TELEMETRY_STALE_S:
             level, message = DiagnosticStatus.WARN, "no telemetry from the main controller"
         elif self.problems.recent():
             level, message = DiagnosticStatus.WARN, f"refusing input: {self.problems.last_reason}"

@@ -5,7 +5,7 @@ import time
 import serial
 
 from auv_dock_guidance.link.bridge import LinkBridge
-from auv_dock_guidance.link.protocol import StreamDecoder, ThrusterCommandMsg
+from auv_dock_guidance.link.protocol import StreamDecoder, TelemetryMsg, ThrusterCommandMsg, encode
 from auv_dock_guidance.link.transport import WRITE_TIMEOUTS_LOST, SerialTransport
 from auv_dock_guidance.sim.main_controller import MainControllerSim
 
@@ -73,6 +73,22 @@ def test_failsafe_sends_neutral_at_the_first_tick_past_the_timeout_within_200_ms
     assert len(after) >= 5 and bridge.stats.failsafe_events == 1  # neutral again on every tick, one event
     bridge.command([1600, 1600, 1600, 1600])  # commands again: forwarded at once
     assert transport.sent[-1][1].pwm_us == (1600, 1600, 1600, 1600)
+
+
+def test_telemetry_age_counts_from_the_last_valid_telemetry():
+    now = [10.0]
+    transport = RecordingTransport(lambda: now[0])
+    bridge = LinkBridge(transport, clock=lambda: now[0])
+    assert bridge.telemetry_age_s() == math.inf  # none yet
+    valid = TelemetryMsg(1, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 0, NEUTRAL, 0)
+    transport.read = lambda: encode(valid, 1)
+    bridge.poll()
+    now[0] += 0.3
+    assert math.isclose(bridge.telemetry_age_s(), 0.3)
+    transport.read = lambda: encode(TelemetryMsg(2, math.nan, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 0, NEUTRAL, 0), 2)
+    bridge.poll()  # a non-finite attitude is not telemetry to steer by: the age runs on
+    now[0] += 0.2
+    assert math.isclose(bridge.telemetry_age_s(), 0.5)
 
 
 def test_bridge_finds_the_controller_again_after_the_cable_is_pulled_and_put_back():
