@@ -62,7 +62,8 @@ class TrackerConfig:
     lateral_noise_per_m: float = 0.009  # measurement noise across the line of sight (detector + attitude), per m
     range_noise_rel: float = 0.02  # measurement noise along it, relative to range
     gate_chi2: float = 13.8  # innovation gate (2 dof, 99.9 %): larger jumps are rejected
-    max_rejections: int = 3  # this many rejected detections that agree with each other restart the position
+    max_rejections: int = 3  # this many rejected detections that agree with each other restart the position...
+    max_relative_speed_mps: float = 1.5  # ...if the vehicle could have got there since the track was last confirmed
     far_off_factor: float = 2.0  # a rejected detection this many times nearer or farther than the track: another light
     estimate_current: bool = True  # False: the position follows each detection, no drift estimate
 
@@ -86,6 +87,7 @@ class DockTracker:
         self._x: np.ndarray | None = None  # rx, ry, cx, cy, speed model error (share)
         self._p = np.eye(5)
         self._rejected: list[tuple[np.ndarray, np.ndarray]] = []  # recent rejected positions and their noise
+        self._confirmed_s = 0.0  # stamp of the last detection the track took
         self.rejected = 0
 
     @property
@@ -123,7 +125,7 @@ class DockTracker:
         z = self._position_from(dock, attitude)
         r = self._measurement_noise(dock)
         if self._x is None or not c.estimate_current:
-            self._start(z, r)
+            self._start(z, r, target.stamp_s)
             return True
         h = np.hstack([np.eye(2), np.zeros((2, 3))])
         s = h @ self._p @ h.T + r
@@ -133,14 +135,23 @@ class DockTracker:
             self.rejected += 1
             self._rejected = [(old, r_old) for old, r_old in self._rejected
                               if _agree(z - old, r + r_old, c.gate_chi2)] + [(z, r)]
-            if len(self._rejected) >= c.max_rejections:
-                self._start(z, r)
+            if len(self._rejected) >= c.max_rejections and self._reachable(innovation, s, target.stamp_s):
+                self._start(z, r, target.stamp_s)
             return False
         k = self._p @ h.T @ np.linalg.inv(s)
         self._x = self._x + k @ innovation
         self._p = (np.eye(5) - k @ h) @ self._p
         self._rejected = []
+        self._confirmed_s = target.stamp_s
         return True
+
+    def _reachable(self, jump: np.ndarray, covariance: np.ndarray, stamp_s: float) -> bool:
+        """The vehicle could have moved this far from the track since it was last confirmed. Seed 58: turned
+        away from the dock 3 m off, the camera saw a lamp 25 m out in three frames and the track jumped there;
+        the vehicle then drove blind past the dock at full speed to a back-off point it thought was ahead."""
+        spread = 3.0 * math.sqrt(float(np.max(np.linalg.eigvalsh(covariance))))
+        reach = self.config.max_relative_speed_mps * (stamp_s - self._confirmed_s) + spread
+        return float(np.linalg.norm(jump)) <= reach
 
     def far_off(self, target: Target, attitude: Attitude) -> bool:
         """The detection puts the dock ``far_off_factor`` times nearer or farther than the track does:
@@ -157,7 +168,7 @@ class DockTracker:
         lever = level_from_body(attitude) @ np.array([self.config.camera_ahead_m, 0.0, 0.0])
         return -(dock_level[:2] + lever[:2])
 
-    def _start(self, z: np.ndarray, r: np.ndarray) -> None:
+    def _start(self, z: np.ndarray, r: np.ndarray, stamp_s: float) -> None:
         """Position from this detection; the current and speed error estimates are kept if there are any."""
         c = self.config
         current = self._x[2:] if self._x is not None else np.zeros(3)
@@ -170,6 +181,7 @@ class DockTracker:
         self._p[:2, :2] = r
         self._p[2:, 2:] = current_p
         self._rejected = []
+        self._confirmed_s = stamp_s
 
     def _measurement_noise(self, dock_level: np.ndarray) -> np.ndarray:
         c = self.config

@@ -90,19 +90,27 @@ def test_the_drift_against_the_vehicles_own_motion_is_the_current():
     assert np.allclose(fix.position_m, auv.position, atol=0.1)
 
 
-def test_rejected_detections_restart_the_track_only_when_they_agree_with_each_other():
+def test_rejected_detections_restart_the_track_only_when_they_agree_and_are_within_reach():
     """A drifted track is corrected by detections that agree with each other; partial rings close in
-    are wild each in their own way and must not move it."""
-    def tracker_after(ranges):
+    are wild each in their own way and must not move it, and neither may a light farther off than the
+    vehicle could have gone since the track was last confirmed (seed 58: a lamp 25 m out, 1.5 s after
+    the dock was seen 3 m ahead)."""
+    def tracker_after(ranges, unseen_s):
         tracker = DockTracker()
         tracker.update(Target(0.0, 3.0, 0.0, 0.0), Attitude(0.0, 0.0, 0.0, 0.0))
-        for i, range_m in enumerate(ranges, start=1):
+        for _ in range(int(round(unseen_s / 0.1))):  # the dock out of view, the vehicle holding station
             tracker.predict(0.1, (0.0, 0.0))
-            tracker.update(Target(0.1 * i, range_m, 0.0, 0.0), Attitude(0.1 * i, 0.0, 0.0, 0.0))
+        for i, range_m in enumerate(ranges, start=1):
+            t = unseen_s + 0.1 * i
+            tracker.predict(0.1, (0.0, 0.0))
+            tracker.update(Target(t, range_m, 0.0, 0.0), Attitude(t, 0.0, 0.0, 0.0))
         return -tracker.fix().position_m[0] - AHEAD  # the camera's range to the dock
 
-    assert tracker_after([7.5, 7.5, 7.5]) == pytest.approx(7.5, abs=0.05)
-    assert tracker_after([4.5, 7.5, 5.8]) == pytest.approx(3.0, abs=0.05)
+    assert tracker_after([7.5, 7.5, 7.5], unseen_s=2.0) == pytest.approx(7.5, abs=0.05)
+    assert tracker_after([6.5, 9.5, 7.8], unseen_s=2.0) == pytest.approx(3.0, abs=0.05)
+    assert tracker_after([7.5, 7.5, 7.5], unseen_s=0.0) == pytest.approx(3.0, abs=0.05)
+    assert tracker_after([25.0, 25.0, 25.0], unseen_s=1.5) == pytest.approx(3.0, abs=0.05)
+    assert tracker_after([25.0, 25.0, 25.0], unseen_s=20.0) == pytest.approx(25.0, rel=0.01)  # lost long enough
 
 
 def test_the_axis_is_told_from_its_mirror_once_the_view_moves():
