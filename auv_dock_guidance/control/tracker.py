@@ -63,7 +63,7 @@ class TrackerConfig:
     range_noise_rel: float = 0.02  # measurement noise along it, relative to range
     gate_chi2: float = 13.8  # innovation gate (2 dof, 99.9 %): larger jumps are rejected
     max_rejections: int = 3  # this many rejected detections that agree with each other restart the position...
-    max_relative_speed_mps: float = 1.5  # ...if the vehicle could have got there since the track was last confirmed
+    max_relative_speed_mps: float = 1.5  # ...if nearer, or farther by no more than the vehicle could have gone since
     far_off_factor: float = 2.0  # a rejected detection this many times nearer or farther than the track: another light
     estimate_current: bool = True  # False: the position follows each detection, no drift estimate
 
@@ -135,7 +135,7 @@ class DockTracker:
             self.rejected += 1
             self._rejected = [(old, r_old) for old, r_old in self._rejected
                               if _agree(z - old, r + r_old, c.gate_chi2)] + [(z, r)]
-            if len(self._rejected) >= c.max_rejections and self._reachable(innovation, s, target.stamp_s):
+            if len(self._rejected) >= c.max_rejections and self._may_restart(z, innovation, s, target.stamp_s):
                 self._start(z, r, target.stamp_s)
             return False
         k = self._p @ h.T @ np.linalg.inv(s)
@@ -145,10 +145,14 @@ class DockTracker:
         self._confirmed_s = target.stamp_s
         return True
 
-    def _reachable(self, jump: np.ndarray, covariance: np.ndarray, stamp_s: float) -> bool:
-        """The vehicle could have moved this far from the track since it was last confirmed. Seed 58: turned
-        away from the dock 3 m off, the camera saw a lamp 25 m out in three frames and the track jumped there;
-        the vehicle then drove blind past the dock at full speed to a back-off point it thought was ahead."""
+    def _may_restart(self, z: np.ndarray, jump: np.ndarray, covariance: np.ndarray, stamp_s: float) -> bool:
+        """Nearer than the track: yes (a ring big in the frame is the stronger evidence, and believing the dock
+        near slows the vehicle and checks the entry). Farther: only as far as the vehicle could have moved since
+        the track was last confirmed. Seed 58: turned away from the dock 3 m off, the camera saw a lamp 25 m out
+        in three frames and the track jumped there; the vehicle drove blind past the dock at full speed to a
+        back-off point it thought was ahead."""
+        if self._x is not None and float(np.linalg.norm(z)) < float(np.linalg.norm(self._x[:2])):
+            return True
         spread = 3.0 * math.sqrt(float(np.max(np.linalg.eigvalsh(covariance))))
         reach = self.config.max_relative_speed_mps * (stamp_s - self._confirmed_s) + spread
         return float(np.linalg.norm(jump)) <= reach

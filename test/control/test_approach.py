@@ -94,7 +94,7 @@ def test_rejected_detections_restart_the_track_only_when_they_agree_and_are_with
     """A drifted track is corrected by detections that agree with each other; partial rings close in
     are wild each in their own way and must not move it, and neither may a light farther off than the
     vehicle could have gone since the track was last confirmed (seed 58: a lamp 25 m out, 1.5 s after
-    the dock was seen 3 m ahead)."""
+    the dock was seen 3 m ahead). Nearer ones are believed: that errs on the slow, checked side."""
     def tracker_after(ranges, unseen_s):
         tracker = DockTracker()
         tracker.update(Target(0.0, 3.0, 0.0, 0.0), Attitude(0.0, 0.0, 0.0, 0.0))
@@ -109,6 +109,7 @@ def test_rejected_detections_restart_the_track_only_when_they_agree_and_are_with
     assert tracker_after([7.5, 7.5, 7.5], unseen_s=2.0) == pytest.approx(7.5, abs=0.05)
     assert tracker_after([6.5, 9.5, 7.8], unseen_s=2.0) == pytest.approx(3.0, abs=0.05)
     assert tracker_after([7.5, 7.5, 7.5], unseen_s=0.0) == pytest.approx(3.0, abs=0.05)
+    assert tracker_after([1.5, 1.5, 1.5], unseen_s=0.0) == pytest.approx(1.5, abs=0.05)  # nearer: believed at once
     assert tracker_after([25.0, 25.0, 25.0], unseen_s=1.5) == pytest.approx(3.0, abs=0.05)
     assert tracker_after([25.0, 25.0, 25.0], unseen_s=20.0) == pytest.approx(25.0, rel=0.01)  # lost long enough
 
