@@ -135,7 +135,7 @@ class DockTracker:
             self.rejected += 1
             self._rejected = [(old, r_old) for old, r_old in self._rejected
                               if _agree(z - old, r + r_old, c.gate_chi2)] + [(z, r)]
-            if len(self._rejected) >= c.max_rejections and self._may_restart(z, innovation, s, target.stamp_s):
+            if len(self._rejected) >= c.max_rejections and self._may_restart(z, s, target.stamp_s):
                 self._start(z, r, target.stamp_s)
             return False
         k = self._p @ h.T @ np.linalg.inv(s)
@@ -145,17 +145,19 @@ class DockTracker:
         self._confirmed_s = target.stamp_s
         return True
 
-    def _may_restart(self, z: np.ndarray, jump: np.ndarray, covariance: np.ndarray, stamp_s: float) -> bool:
+    def _may_restart(self, z: np.ndarray, covariance: np.ndarray, stamp_s: float) -> bool:
         """Nearer than the track: yes (a ring big in the frame is the stronger evidence, and believing the dock
         near slows the vehicle and checks the entry). Farther: only as far as the vehicle could have moved since
         the track was last confirmed. Seed 58: turned away from the dock 3 m off, the camera saw a lamp 25 m out
         in three frames and the track jumped there; the vehicle drove blind past the dock at full speed to a
         back-off point it thought was ahead."""
-        if self._x is not None and float(np.linalg.norm(z)) < float(np.linalg.norm(self._x[:2])):
+        assert self._x is not None  # only a running track rejects detections
+        tracked = self._x[:2]
+        if float(np.linalg.norm(z)) < float(np.linalg.norm(tracked)):
             return True
         spread = 3.0 * math.sqrt(float(np.max(np.linalg.eigvalsh(covariance))))
         reach = self.config.max_relative_speed_mps * (stamp_s - self._confirmed_s) + spread
-        return float(np.linalg.norm(jump)) <= reach
+        return float(np.linalg.norm(z - tracked)) <= reach
 
     def far_off(self, target: Target, attitude: Attitude) -> bool:
         """The detection puts the dock ``far_off_factor`` times nearer or farther than the track does:
