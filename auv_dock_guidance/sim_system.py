@@ -42,6 +42,7 @@ class SimulatedSystem:
                 "camera_ingest": {"source": "sim", "sim_reflection": world.reflection},
                 "detector": {"marker_led_count": world.scene.led_count},  # the simulated dock, described
                 "serial_bridge": {"port": self.controller.port, "arm_on_start": True},
+                "guidance": {"side_room_m": world.side_room_m() if world.walls else 0.0},
             },
             env=ros_environment(domain_id=self.domain),
             log_dir=log_dir,

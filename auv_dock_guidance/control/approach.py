@@ -101,6 +101,9 @@ class ApproachConfig:
     facing_deg: float = 10.0  # back at the point, the nose this close to the dock: backed off...
     refound_gap_m: float = 1.5  # ...unless the dock seen again puts the nose this far off the line: go again...
     max_back_off_legs: int = 3  # ...at most this many times per back-off
+    side_room_m: float = math.inf  # beside the dock's axis, each side, to a wall (a pool's, less the hull)...
+    back_off_room_share: float = 0.75  # ...back-off points lie within this share of it...
+    wall_first_share: float = 0.5  # ...and beyond this share, reversing away from the wall comes before the view
     settle_m: float = 4.0  # on the approach line by this far out
     sidestep: bool = False  # back off sideways when the line is out of reach (else: approach, retry if it would miss)
     sidestep_shortfall_deg: float = 3.0  # sidestep when reaching the line in view falls short by more than this...
@@ -389,6 +392,25 @@ class ApproachPlanner:
         current = (s.current_mps[0] + extra * side[0], s.current_mps[1] + extra * side[1])
         return g.axis_yaw + self._line_turn(g.axis_yaw, current)
 
+    def _within_walls(self, point: tuple[float, float], g: _Geometry) -> tuple[float, float]:
+        """``point`` moved across the dock's axis to within ``back_off_room_share`` of the side room."""
+        side = _unit(g.axis_yaw + math.pi / 2)
+        cross = _dot(point, side)
+        allowed = self.config.back_off_room_share * self.config.side_room_m
+        if abs(cross) <= allowed:
+            return point
+        shift = math.copysign(allowed, cross) - cross
+        return point[0] + shift * side[0], point[1] + shift * side[1]
+
+    def _near_wall(self, s: Situation, g: _Geometry, to_goal: tuple[float, float]) -> bool:
+        """Beyond ``wall_first_share`` of the side room with the back-off point inwards: reversing with the nose
+        held on the dock lets a cross current carry the vehicle on towards the wall, and turning round to drive
+        blind drifts it there while it turns."""
+        side = _unit(g.axis_yaw + math.pi / 2)
+        cross = _dot(s.position_m, side)
+        return (abs(cross) > self.config.wall_first_share * self.config.side_room_m
+                and _dot(to_goal, side) * cross < 0)
+
     def _back_off(self, s: Situation, g: _Geometry) -> Plan:
         """To a point on the line further out, then face the dock: in reverse with the nose on the dock, or
         blind where reversing there would take the dock out of view (see the module docstring)."""
@@ -401,6 +423,7 @@ class ApproachPlanner:
         if blind:  # up-current of the line by what the current carries the vehicle while it turns to the dock
             turning_s = abs(wrap_angle(s.heading_rad - g.sight)) / math.radians(c.turn_rate_deg_s)
             goal = (goal[0] - turning_s * s.current_mps[0], goal[1] - turning_s * s.current_mps[1])
+        goal = self._within_walls(goal, g)
         to_goal = (goal[0] - g.nose[0], goal[1] - g.nose[1])
         gap = math.hypot(*to_goal)
         if gap < 1.0 and self._back_off_phase is not _BackOff.FACE:
@@ -422,6 +445,9 @@ class ApproachPlanner:
         reverse = math.atan2(-water[1], -water[0])
         fov = math.radians(c.fov_margin_deg)
         beyond_view = abs(wrap_angle(reverse - g.sight)) - fov
+        if not blind and self._near_wall(s, g, to_goal):  # reverse straight for the point, the dock in view or not
+            return Plan(wrap_angle(reverse), -min(math.hypot(*water), c.max_speed_mps), Verdict.GO, g.along, g.cross,
+                        None, blind=beyond_view > 0)
         if g.along >= c.reposition_from_m and (
                 beyond_view > math.radians(c.reposition_beyond_view_deg) or g.along > c.back_off_to_m + 1.0):
             if not blind:  # from this tick on the blind goal and speed

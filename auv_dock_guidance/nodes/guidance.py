@@ -93,6 +93,8 @@ PARAMS = [
     Param("max_speed_mps", 0.9, "fastest approach through the water, used against a cross current (m/s)", 0.1, 5.0),
     Param("entry_crab_deg", 8.0, "largest heading off the dock's axis for the last metres (deg)", 1.0, 30.0),
     Param("sidestep", False, "back off sideways in reverse when the approach line is out of reach (else retry)"),
+    Param("side_room_m", 0.0, "room beside the dock's axis to a wall, each side, less the hull (m); 0: open water",
+          0.0, 1000.0),
 ]
 
 
@@ -106,7 +108,7 @@ def guidance_config(v: dict[str, Any], mixer: MixerConfig, camera_ahead_m: float
         full_thrust_speed_mps=v["full_thrust_speed_mps"],
     )
     approach = ApproachConfig(max_speed_mps=v["max_speed_mps"], entry_crab_deg=v["entry_crab_deg"],
-                              sidestep=v["sidestep"])
+                              sidestep=v["sidestep"], side_room_m=v["side_room_m"] or math.inf)
     return GuidanceConfig(
         velocity_steering=v["velocity_steering"], axis_alignment=v["axis_alignment"], max_retries=v["max_retries"],
         last_try_tolerance_m=v["last_try_tolerance_m"], retry_blind_timeout_s=v["retry_blind_timeout_s"],

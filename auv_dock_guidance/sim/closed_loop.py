@@ -30,7 +30,7 @@ from auv_dock_guidance.geometry.uncertainty import observation_of, tilt_sigma_ra
 from auv_dock_guidance.sim.scenarios import dock_look
 from auv_dock_guidance.sim.scene import GroundTruth, SceneSpec, render
 from auv_dock_guidance.sim.vehicle import AuvDynamics
-from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
+from auv_dock_guidance.sim.world import HULL_RADIUS_M, PoolWorld, VehiclePose
 from auv_dock_guidance.vision.detection import Detection
 from auv_dock_guidance.vision.detector import Detector, DetectorConfig
 
@@ -59,7 +59,7 @@ class EpisodeConfig:
     control_hz: float = 50.0
     render_scale: float = 0.5
     max_time_s: float | None = None  # None: 150 s in the pool, 300 s in open water
-    vehicle_radius_m: float = 0.12
+    vehicle_radius_m: float = HULL_RADIUS_M
     max_heading_error_deg: float = 15.0
     steering: str = "both"  # plain (the paper's bearing homing) | tracker | axis | both
     current_mps: float | None = None  # largest random water current; None: 0 in the pool, 0.3 m/s in open water
@@ -223,6 +223,8 @@ def run_episode(config: EpisodeConfig, seed: int, on_frame: FrameHook | None = N
     camera: CameraModel = paper_camera().scaled(config.render_scale)
     vehicle = episode_vehicle(config, world, rng, seed)
     guidance_config = config.guidance_config()
+    guidance_config = replace(guidance_config, approach=replace(  # as a deployment in a pool or harbour sets it
+        guidance_config.approach, side_room_m=world.side_room_m(config.vehicle_radius_m)))
     homing = AcousticHoming(world, rng, guidance_config.cascade.cruise_speed_mps,
                             guidance_config.cascade.full_thrust_speed_mps) if config.open_water else None
     # Tracking as the deployed detector node runs it: a window round the predicted ring, the whole frame when lost.
@@ -337,7 +339,7 @@ def nose_in_dock_frame(world: PoolWorld, pose: VehiclePose) -> tuple[float, floa
     return float(rel @ axis), float(rel @ left), float(rel[2])
 
 
-def entry_outcome(world: PoolWorld, pose: VehiclePose, vehicle_radius_m: float = 0.12,
+def entry_outcome(world: PoolWorld, pose: VehiclePose, vehicle_radius_m: float = HULL_RADIUS_M,
                   max_heading_error_deg: float = 15.0) -> tuple[str, float, float]:
     """(reason, lateral error m, heading error deg) as the nose crosses the entrance plane.
 

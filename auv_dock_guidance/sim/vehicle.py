@@ -42,7 +42,6 @@ class VehicleParams:
     lateral_arm_m: float = 0.12  # thruster distance from the centre line, sideways...
     vertical_arm_m: float = 0.10  # ...and up/down
     roll_amplitude_rad: float = math.radians(2.0)  # small residual roll (under 5 deg)
-    radius_m: float = 0.12  # hull radius
 
 
 @dataclass(frozen=True)

@@ -32,6 +32,9 @@ class VehiclePose:
         return _rz(-self.yaw) @ _ry(-self.pitch) @ _rx(self.roll)
 
 
+HULL_RADIUS_M = 0.12  # the simulated vehicle's
+
+
 @dataclass(frozen=True)
 class PoolWorld:
     length_m: float = 30.0
@@ -67,6 +70,10 @@ class PoolWorld:
     def heading_off_axis_rad(self, pose: VehiclePose) -> float:
         """Angle between the hull's axis and the dock's axis."""
         return math.acos(max(-1.0, min(1.0, float(pose.body_to_world()[:, 0] @ self.dock_axis))))
+
+    def side_room_m(self, hull_radius_m: float = HULL_RADIUS_M) -> float:
+        """Room beside the dock's axis to a side wall, each side (guidance's ``side_room_m``); open water: inf."""
+        return self.width_m / 2 - hull_radius_m if self.walls else math.inf
 
     def collides(self, pose: VehiclePose, hull_radius_m: float) -> bool:
         """The hull leaves the water or, in the pool, touches a side wall or the floor."""

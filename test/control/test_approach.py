@@ -297,6 +297,34 @@ def test_far_round_the_dock_in_a_strong_cross_current_one_blind_retry_brings_it_
     assert abs(auv.nose[1]) < 0.05 and abs(auv.heading) < math.radians(10)
 
 
+class WidthRecordingAuv(KinematicAuv):
+    """Also keeps the farthest the reference point came from the axis (a pool's side walls)."""
+
+    widest = 0.0
+
+    def step(self, yaw_goal, speed_goal, dt):
+        super().step(yaw_goal, speed_goal, dt)
+        self.widest = max(self.widest, abs(self.position[1]))
+
+
+def test_in_a_pool_a_retry_in_a_cross_current_keeps_off_the_side_wall_and_docks():
+    """2 m to the side 9 m out, 0.2 m/s towards that side's wall 2.38 m from the axis: the first approach
+    would miss. Backing off to a line turned up-current, the nose held on the dock, the current carried
+    the vehicle 3 m out (through the wall); knowing the room, it reverses away from the wall first and its
+    back-off point lies within the room."""
+    def retry_in_the_pool(side_room_m):
+        auv = WidthRecordingAuv((-9.0, 2.0), math.atan2(-2.0, 9.0), (0.0, 0.2))
+        guidance = Guidance(replace(GuidanceConfig(), approach=ApproachConfig(side_room_m=side_room_m)))
+        return auv, guidance, fly(guidance, auv, seconds=300.0)
+
+    unbounded, _, _ = retry_in_the_pool(math.inf)
+    assert unbounded.widest > 2.38
+    auv, guidance, out = retry_in_the_pool(2.38)
+    assert out.state is not State.ABORT, out.transition
+    assert guidance.retries >= 1 and auv.widest < 2.38
+    assert abs(auv.nose[1]) < 0.1 and abs(auv.heading) < math.radians(10)
+
+
 def retry_unseen(config=GuidanceConfig(), seconds=80.0):
     """Guidance into a retry 20 deg off the axis in a cross current; from then on the camera sees nothing.
     Returns (time since the retry began, state, transition) for every tick after it."""
