@@ -16,7 +16,7 @@ import math
 import sqlite3
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -238,7 +238,8 @@ def replay(
             if connection.id in imu_ids:
                 q = msg.orientation
                 roll, pitch, yaw = navigation_attitude(q.x, q.y, q.z, q.w)
-                attitude = Attitude(_stamp(msg.header.stamp), roll, pitch, yaw)
+                yaw_rate = -float(msg.angular_velocity.z)  # REP 103 body z is up; navigation turns to starboard +
+                attitude = Attitude(_stamp(msg.header.stamp), roll, pitch, yaw, 0.0, yaw_rate)
                 continue
             if connection.id not in image_ids:
                 continue
@@ -260,7 +261,7 @@ def replay(
                 continue
             # Without recorded navigation, a level vehicle holding its heading stands in.
             nav = attitude if attitude is not None else Attitude(stamp, 0.0, 0.0, 0.0)
-            nav = Attitude(stamp, nav.roll_rad, nav.pitch_rad, nav.yaw_rad, nav.depth_m)
+            nav = replace(nav, stamp_s=stamp)
             target = None
             pose = detection.pose
             guidance.frame_processed(stamp)

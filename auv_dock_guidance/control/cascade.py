@@ -58,9 +58,11 @@ class Attitude:
     pitch_rad: float
     yaw_rad: float
     depth_m: float = 0.0
+    yaw_rate_rad_s: float = 0.0  # turning to starboard +; 0 where the navigation does not report it
 
     def is_valid(self) -> bool:
-        return all(math.isfinite(v) for v in (self.stamp_s, self.roll_rad, self.pitch_rad, self.yaw_rad, self.depth_m))
+        return all(math.isfinite(v) for v in (self.stamp_s, self.roll_rad, self.pitch_rad, self.yaw_rad, self.depth_m,
+                                              self.yaw_rate_rad_s))
 
 
 @dataclass(frozen=True)

@@ -111,6 +111,8 @@ class GuidanceConfig:
     retry_blind_timeout_s: float = 40.0  # RETRY without a detection this long (turned round to get back) -> SEARCH
     faced_unseen_timeout_s: float = 4.0  # RETRY facing where the track puts the dock, not seeing it this long -> SEARCH
     speed_time_constant_s: float = 1.0  # how fast the vehicle's speed through the water follows its thrust
+    sideslip_per_turn_s: float = 1.1  # a turning hull slides outwards: sway = this x speed x turn rate (m / damping)
+    sideslip_time_constant_s: float = 2.0  # ...reached this slowly ((m + added mass) / sway damping)
     cascade: CascadeConfig = field(default_factory=CascadeConfig)
     mixer: MixerConfig = field(default_factory=MixerConfig)
     approach: ApproachConfig = field(default_factory=ApproachConfig)
@@ -123,7 +125,7 @@ class GuidanceConfig:
             self.terminal_blind_timeout_s, self.retry_blind_timeout_s, self.faced_unseen_timeout_s,
             self.telemetry_timeout_s, self.detection_max_age_s, self.max_roll_rad, self.max_pitch_rad,
             self.blind_range_m, self.camera_timeout_s, self.recovery_s, self.speed_time_constant_s,
-            self.last_try_tolerance_m,
+            self.last_try_tolerance_m, self.sideslip_time_constant_s,
         )
         if not all(math.isfinite(v) and v > 0 for v in positive) or min(
                 self.confirm_frames, self.terminal_confirm_frames) < 1 or self.dock_margin_m < 0:
@@ -196,6 +198,7 @@ class Guidance:
         self.sidesteps = 0
         self._sidestepping = False
         self._water_speed = 0.0  # the vehicle's own speed through the water, from its thrust
+        self._sway = 0.0  # its sideways speed through the water (starboard +), from its turn rate
         self._surge = 0.0  # the surge share of the last command
         self._since: float | None = None  # time the current state began
         self._streak = 0
@@ -345,12 +348,18 @@ class Guidance:
         return GuidanceOutput(self.state, command, demands, transition, rejected, plan)
 
     def _own_motion(self, dt: float, attitude: Attitude) -> None:
-        """The vehicle's motion through the water since the last tick (its thrust and heading) moves the track on."""
-        full = self.config.cascade.full_thrust_speed_mps
+        """The vehicle's motion through the water since the last tick (its thrust, heading and turn rate) moves
+        the track on. The sideslip of a turn, left out, reads as current: 0.03 m/s in a 3 deg/s turn at
+        0.6 m/s, enough to put the blind last metre 5 cm off."""
+        c = self.config
+        full = c.cascade.full_thrust_speed_mps
         steady = math.copysign(full * math.sqrt(abs(self._surge)), self._surge)
-        self._water_speed += (steady - self._water_speed) * min(1.0, dt / self.config.speed_time_constant_s)
-        run = self._water_speed * dt * math.cos(attitude.pitch_rad)
-        self.tracker.predict(dt, (run * math.cos(attitude.yaw_rad), run * math.sin(attitude.yaw_rad)))
+        self._water_speed += (steady - self._water_speed) * min(1.0, dt / c.speed_time_constant_s)
+        slide = -c.sideslip_per_turn_s * self._water_speed * attitude.yaw_rate_rad_s
+        self._sway += (slide - self._sway) * min(1.0, dt / c.sideslip_time_constant_s)
+        run, aside = self._water_speed * dt * math.cos(attitude.pitch_rad), self._sway * dt
+        cy, sy = math.cos(attitude.yaw_rad), math.sin(attitude.yaw_rad)
+        self.tracker.predict(dt, (run * cy - aside * sy, run * sy + aside * cy))
 
     def _observe(self, target: Target, attitude: Attitude) -> bool:
         """Correct the track, the dock's depth and its axis with a detection. False for one the tracker

@@ -98,7 +98,8 @@ def attitude_to_imu(attitude: Attitude, rates: tuple[float, float, float], frame
 def imu_to_attitude(msg: Imu, depth_m: float) -> Attitude:
     q = msg.orientation
     roll, pitch, yaw = navigation_attitude(q.x, q.y, q.z, q.w)
-    return Attitude(stamp_seconds(msg.header.stamp), roll, pitch, yaw, depth_m)
+    yaw_rate = -msg.angular_velocity.z  # REP 103 body z is up; the navigation turns to starboard +
+    return Attitude(stamp_seconds(msg.header.stamp), roll, pitch, yaw, depth_m, yaw_rate)
 
 
 def vehicle_to_pose(pose: VehiclePose, stamp: TimeMsg, frame_id: str = "pool") -> PoseStamped:

@@ -240,7 +240,7 @@ def run_episode(config: EpisodeConfig, seed: int, on_frame: FrameHook | None = N
     last_state = guidance.state
     while t < config.time_limit_s():
         nav = vehicle.navigation()
-        attitude = Attitude(t, nav.roll, nav.pitch, nav.yaw, nav.depth)
+        attitude = Attitude(t, nav.roll, nav.pitch, nav.yaw, nav.depth, nav.yaw_rate)
         target = None
         if t >= next_frame:
             next_frame += frame_period
