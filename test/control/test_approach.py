@@ -684,3 +684,18 @@ def test_the_back_off_point_lies_up_current_of_the_line():
     assert back_off_from_the_line(ApproachConfig(upstream_margin_mps=0.0)).verdict is Verdict.BACKED_OFF
     moving = back_off_from_the_line(ApproachConfig())
     assert moving.verdict is Verdict.GO and math.sin(moving.yaw_rad) < -0.5  # out to port, against the current
+
+
+def test_a_dock_seen_head_on_through_tilt_noise_is_not_put_to_one_side():
+    """On the axis 12-4 m out, each view's ring normal off by 4 deg of noise in each direction (the
+    detector reads a head-on ring 5 deg tilted on average, in no particular direction): the mirror pairs
+    straddle the line of sight by that much, and the estimate must not settle on one side of it."""
+    rng = np.random.default_rng(5)
+    axis = AxisEstimator()
+    for i in range(80):
+        t, position = 0.1 * i, (-12.0 + 0.1 * i, 0.0)
+        noise = np.radians(4.0) * rng.standard_normal(2)
+        normal = np.array([noise[0], noise[1], -1.0]) / math.sqrt(1.0 + float(noise @ noise))  # optical: back out
+        target = replace(sighting(position, 0.0, t), axis_optical=tuple(normal), axis_sigma_rad=math.radians(3.0))
+        axis.observe(target, target.axis_optical, Attitude(t, 0.0, 0.0, 0.0))
+    assert abs(axis.estimate().yaw_rad) < math.radians(2.0)
