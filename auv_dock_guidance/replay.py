@@ -29,7 +29,7 @@ from auv_dock_guidance.control.cascade import Attitude, Target
 from auv_dock_guidance.control.guidance import Guidance, GuidanceConfig, State
 from auv_dock_guidance.errors import CameraModelError, DockGuidanceError
 from auv_dock_guidance.geometry.camera import ApproximateLens, CameraModel
-from auv_dock_guidance.geometry.rotations import navigation_attitude
+from auv_dock_guidance.geometry.rotations import navigation_attitude, navigation_yaw_rate
 from auv_dock_guidance.salvage import SalvagedBag
 from auv_dock_guidance.vision.detector import Detector, DetectorConfig
 from auv_dock_guidance.vision.image_input import decode_compressed, image_from_fields
@@ -238,7 +238,7 @@ def replay(
             if connection.id in imu_ids:
                 q = msg.orientation
                 roll, pitch, yaw = navigation_attitude(q.x, q.y, q.z, q.w)
-                yaw_rate = -float(msg.angular_velocity.z)  # REP 103 body z is up; navigation turns to starboard +
+                yaw_rate = navigation_yaw_rate(msg.angular_velocity.z, msg.angular_velocity_covariance[0])
                 attitude = Attitude(_stamp(msg.header.stamp), roll, pitch, yaw, 0.0, yaw_rate)
                 continue
             if connection.id not in image_ids:

@@ -445,10 +445,8 @@ class ApproachPlanner:
         reverse = math.atan2(-water[1], -water[0])
         fov = math.radians(c.fov_margin_deg)
         beyond_view = abs(wrap_angle(reverse - g.sight)) - fov
-        if not blind and self._near_wall(s, g, to_goal):  # reverse straight for the point, the dock in view or not
-            return Plan(wrap_angle(reverse), -min(math.hypot(*water), c.max_speed_mps), Verdict.GO, g.along, g.cross,
-                        None, blind=beyond_view > 0)
-        if g.along >= c.reposition_from_m and (
+        wall_first = not blind and self._near_wall(s, g, to_goal)  # reverse straight for the point, in view or not
+        if not wall_first and g.along >= c.reposition_from_m and (
                 beyond_view > math.radians(c.reposition_beyond_view_deg) or g.along > c.back_off_to_m + 1.0):
             if not blind:  # from this tick on the blind goal and speed
                 self._back_off_phase = _BackOff.BLIND
@@ -458,6 +456,8 @@ class ApproachPlanner:
             speed = min(math.hypot(*water), c.max_speed_mps) * max(0.0, math.cos(wrap_angle(yaw - s.heading_rad)))
             return Plan(yaw, speed, Verdict.GO, g.along, g.cross, None, blind=True)
         speed = -min(math.hypot(*water), c.max_speed_mps)
+        if wall_first:
+            return Plan(wrap_angle(reverse), speed, Verdict.GO, g.along, g.cross, None, blind=beyond_view > 0)
         yaw = g.sight + _clamp(wrap_angle(reverse - g.sight), -fov, fov)
         if beyond_view > 0:  # the camera limits the heading: make up with speed
             speed = -c.max_speed_mps

@@ -41,6 +41,12 @@ def navigation_attitude(x: float, y: float, z: float, w: float) -> tuple[float, 
     return roll, -pitch, -yaw
 
 
+def navigation_yaw_rate(rate_z: float, covariance_xx: float = 0.0) -> float:
+    """The turn rate (to starboard +) of a REP 103 body rate about z (up), as an Imu message carries it;
+    0 where the message says it reports none (covariance -1, REP 145) or it is not a number."""
+    return -float(rate_z) if covariance_xx != -1.0 and math.isfinite(rate_z) else 0.0
+
+
 def matrix_from_quaternion(x: float, y: float, z: float, w: float) -> np.ndarray:
     return np.array([
         [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],

@@ -15,7 +15,7 @@ from visualization_msgs.msg import Marker
 
 from auv_dock_guidance.control.cascade import Attitude
 from auv_dock_guidance.geometry.camera import CameraModel
-from auv_dock_guidance.geometry.rotations import navigation_attitude, rep103_quaternion
+from auv_dock_guidance.geometry.rotations import navigation_attitude, navigation_yaw_rate, rep103_quaternion
 from auv_dock_guidance.geometry.uncertainty import DockPose
 from auv_dock_guidance.sim.world import VehiclePose
 from auv_dock_guidance.vision.image_input import image_from_fields
@@ -98,7 +98,7 @@ def attitude_to_imu(attitude: Attitude, rates: tuple[float, float, float], frame
 def imu_to_attitude(msg: Imu, depth_m: float) -> Attitude:
     q = msg.orientation
     roll, pitch, yaw = navigation_attitude(q.x, q.y, q.z, q.w)
-    yaw_rate = -msg.angular_velocity.z  # REP 103 body z is up; the navigation turns to starboard +
+    yaw_rate = navigation_yaw_rate(msg.angular_velocity.z, msg.angular_velocity_covariance[0])
     return Attitude(stamp_seconds(msg.header.stamp), roll, pitch, yaw, depth_m, yaw_rate)
 
 
