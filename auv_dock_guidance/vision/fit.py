@@ -9,8 +9,10 @@ tilted). The outer ellipse, scaled to where most of the hole's outline lies, is 
 inner outline. For separate LEDs or arcs the
 ellipse goes through all their outlines. A ring the frame cuts gets a circle through
 what is visible (LED centres, or the strip's outer edge): the bearing that turns the
-vehicle towards it, and a rougher range. The tilt-aware centre comes from
-`geometry/pose.py` (`ring_center_solution`).
+vehicle towards it, and a rougher range. A solid blob (a hole a lit funnel filled) has
+only its outline, but that too is read in perspective: seen off the optical axis it is
+stretched outwards by 1/cos(bearing), and the paper's z = R / r read it short. The
+tilt-aware centre comes from `geometry/pose.py` (`ring_center_solution`).
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ import cv2
 import numpy as np
 
 from auv_dock_guidance.geometry.camera import CameraModel
-from auv_dock_guidance.geometry.pose import Ellipse, pose_from_circle, pose_from_point, ring_center_solution
+from auv_dock_guidance.geometry.pose import Ellipse, MarkerPose, pose_from_circle, pose_from_point, ring_center_solution
 from auv_dock_guidance.vision.config import DetectorConfig
 from auv_dock_guidance.vision.detection import Detection
 from auv_dock_guidance.vision.normalized import center_pixels, cut_shape, fit_ellipse, normalized_points, plane_points
@@ -69,8 +71,11 @@ def fit_region(region: Region, candidates: int, frame_size: tuple[int, int], cam
     if inner_scale is not None:  # the outer outline's shape, midway to the hole's edge; its centre offset tells nothing
         centre_line = scaled(outer, 0.5 * (1.0 + inner_scale))
         solution = ring_center_solution(centre_line, marker_radius)
-    elif inner is None and not region.dotted:  # a solid blob: its outline is all we have
-        return circle_detection(camera, outer, marker_radius, common)
+    elif inner is None and not region.dotted:  # a solid blob: its outline, seen in perspective, is all we have
+        solution = ring_center_solution(outer, marker_radius)
+        if solution is None:
+            return circle_detection(camera, outer, marker_radius, common)
+        return _detection_at(pose_from_point(solution[0]), outer, camera, common)
     elif inner is None:  # separate LEDs: their outlines straddle the centre line
         centre_line = outer
         solution = ring_center_solution(centre_line, marker_radius,
@@ -91,12 +96,14 @@ def fit_region(region: Region, candidates: int, frame_size: tuple[int, int], cam
         pose = pose_from_point(solution[0])
         axis = solution[1]
         normal = None if axis is None else (float(axis[0]), float(axis[1]), float(axis[2]))
-    x, y = pose.offset_x_m / pose.range_m, pose.offset_y_m / pose.range_m
-    u, v, focal = center_pixels(camera, x, y)
-    return Detection(
-        u=u, v=v, radius_px=centre_line.semi_major * focal, is_ring=True, ellipse=centre_line,
-        pose=pose, ring_normal=normal, **common,
-    )
+    return _detection_at(pose, centre_line, camera, common, is_ring=True, ring_normal=normal)
+
+
+def _detection_at(pose: MarkerPose, outline: Ellipse, camera: CameraModel | None, common: dict[str, Any],
+                  **reading: Any) -> Detection:
+    """A Detection of a marker centre found in 3-D: its image where that centre projects."""
+    u, v, focal = center_pixels(camera, pose.offset_x_m / pose.range_m, pose.offset_y_m / pose.range_m)
+    return Detection(u=u, v=v, radius_px=outline.semi_major * focal, ellipse=outline, pose=pose, **common, **reading)
 
 
 def circle_detection(camera: CameraModel | None, outline: Ellipse, marker_radius_m: float,

@@ -61,6 +61,24 @@ def test_a_strips_hole_a_lit_funnel_fills_on_one_side_does_not_squash_the_ring(c
     assert min(errors) < 3.0, errors
 
 
+@pytest.mark.parametrize("facing", ["the camera", "along the optical axis"])
+def test_a_solid_blob_seen_off_the_optical_axis_gets_its_range_in_perspective(camera, facing):
+    """A ring whose hole a lit funnel filled is one blob: its outline is all there is. Seen 27 deg off
+    the optical axis, facing the camera, its image is stretched outwards by 1/cos(27 deg), and the
+    paper's z = R / r read it 11 % short (seed 13: range errors changing with the bearing read as a
+    0.1 m/s current, entry 17.6 cm off)."""
+    center = np.array([3.0, 0.2, 6.0])
+    normal = -center / np.linalg.norm(center) if facing == "the camera" else np.array([0.0, 0.0, -1.0])
+    outline = _tilted_circle_px(camera, center, normal, lambda t: np.full_like(t, 0.35))
+    shape = CandidateShape(area_px=2e3, center_v=560, radius_px=50, axis_ratio=0.9, hole_fraction=0, edge_support=1)
+    detection = fit_region(Region(shape, 100.0, outline, None), 1, (camera.height, camera.width), camera,
+                           DetectorConfig(marker_radius_m=0.35))
+    truth = camera.project(np.array([center]))[0][0]
+    assert detection.found and not detection.is_ring and detection.ring_normal is None
+    assert detection.pose.range_m == pytest.approx(6.0, rel=0.02)
+    assert math.hypot(detection.u - truth[0], detection.v - truth[1]) < 1.0
+
+
 def test_a_ring_the_frame_cuts_gets_the_circle_through_its_visible_leds(camera):
     center = (1.1, 0.0, 4.0)  # beyond the right edge of the frame in part
     leds = _circle_px(camera, center, 0.35, count=24)
