@@ -31,7 +31,9 @@ States:
 * ABORT: marker lost too long, search timed out, telemetry stale or no camera frame
   while driving (TRACK, TERMINAL), attitude out of limits. Neutral thrust. An ABORT for
   lost telemetry or camera returns to SEARCH once both have been healthy for
-  ``recovery_s``; the others wait for ``reset()`` (re-arm).
+  ``recovery_s`` (to RETRY when the track puts the dock closer than ``terminal_range_m``:
+  SEARCH would wait for a ring too close to be seen whole); the others wait for
+  ``reset()`` (re-arm).
 
 Steering: the paper's bearing homing (nose on the dock), or, with ``velocity_steering``
 and/or ``axis_alignment``, the approach path (``approach.py``): the dock tracked in the
@@ -243,9 +245,25 @@ class Guidance:
         if now_s - self._healthy_since < self.config.recovery_s:
             return None
         kind, self._abort_kind, self._healthy_since = self._abort_kind, None, None
-        self.state, self._since, self._streak = State.SEARCH, now_s, 0
+        self._since, self._streak = now_s, 0
         self.cascade.reset()
-        return Transition(now_s, State.ABORT, State.SEARCH, f"{kind} healthy again for {self.config.recovery_s:.1f} s")
+        reason = f"{kind} healthy again for {self.config.recovery_s:.1f} s"
+        close = self._tracked_distance_m()
+        if close is not None and close < self.config.terminal_range_m:
+            # SEARCH waits for the ring in view, and this close it is not (it fills the frame or left it):
+            # back off along the track until it is.
+            self.state = State.RETRY
+            return Transition(now_s, State.ABORT, State.RETRY,
+                              f"{reason}; the track puts the dock {close:.1f} m ahead, too close to see: back off")
+        self.state = State.SEARCH
+        return Transition(now_s, State.ABORT, State.SEARCH, reason)
+
+    def _tracked_distance_m(self) -> float | None:
+        """From the camera to the dock by the track (own motion and drift since the last sighting), or None."""
+        fix = self.tracker.fix() if self.config.follows_path else None
+        if fix is None:
+            return None
+        return max(0.0, math.hypot(*fix.position_m) - self.config.tracker.camera_ahead_m)
 
     def _plausible_in_terminal(self, target: Target) -> bool:
         """Close in, the ring leaves the frame and a partial ring gives a wild bearing: ignore those."""

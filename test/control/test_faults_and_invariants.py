@@ -44,6 +44,30 @@ def test_camera_silence_while_tracking_aborts_then_recovers_when_frames_return()
     assert "camera healthy again" in recovered[-1].reason
 
 
+def test_a_camera_outage_close_to_the_dock_recovers_by_backing_off_not_by_waiting():
+    """1.6 m out the ring fills the frame: SEARCH (no thrust until the ring is confirmed) would wait for a
+    sighting that cannot come while the current carries the vehicle about. It backs off until it sees."""
+    g = Guidance()
+    t = 0.0
+    while g.state is not State.TERMINAL:
+        g.frame_processed(t)
+        g.update(t, Target(t, 1.8, 0.02, 0.0), Attitude(t, 0, 0, 0))
+        t += 0.05
+        assert t < 3.0
+    for _ in range(30):  # telemetry, no frames
+        g.update(t, None, Attitude(t, 0, 0, 0))
+        t += 0.05
+    assert g.state is State.ABORT
+    outs = []
+    for _ in range(60):  # frames again, the ring out of view
+        g.frame_processed(t)
+        outs.append(g.update(t, None, Attitude(t, 0, 0, 0)))
+        t += 0.05
+    recovery = next(o.transition for o in outs if o.transition)
+    assert recovery.state is State.RETRY and "back off" in recovery.reason
+    assert outs[-1].state is State.RETRY and outs[-1].demands.speed_setpoint_mps < 0  # in reverse
+
+
 def test_telemetry_loss_aborts_and_recovers():
     g = Guidance()
     t = drive_to_track(g)
