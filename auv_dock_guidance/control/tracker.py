@@ -55,7 +55,7 @@ def dock_from_camera(target: Target, attitude: Attitude) -> np.ndarray:
 class TrackerConfig:
     camera_ahead_m: float = 0.9  # camera ahead of the vehicle's reference point (the point the filter tracks)
     motion_noise_mps: float = 0.08  # error of the vehicle's own motion model (speed, sideslip), white
-    current_noise_mps2: float = 0.01  # how fast the current may change (random walk)
+    current_noise_mps2: float = 0.03  # how fast the current may change (random walk; tidal gusts and eddies)
     initial_current_sigma_mps: float = 0.3
     initial_speed_error_sigma: float = 0.08  # own speed model's error, share of the speed
     speed_error_noise_per_s: float = 0.002  # how fast that error may drift (random walk)
