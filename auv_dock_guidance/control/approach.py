@@ -402,12 +402,13 @@ class ApproachPlanner:
         shift = math.copysign(allowed, cross) - cross
         return point[0] + shift * side[0], point[1] + shift * side[1]
 
-    def _near_wall(self, s: Situation, g: _Geometry, to_goal: tuple[float, float]) -> bool:
-        """Beyond ``wall_first_share`` of the side room with the back-off point inwards: reversing with the nose
-        held on the dock lets a cross current carry the vehicle on towards the wall, and turning round to drive
-        blind drifts it there while it turns."""
+    def _near_wall(self, s: Situation, g: _Geometry, to_goal: tuple[float, float], turning_s: float) -> bool:
+        """Beyond ``wall_first_share`` of the side room, where the current sets the vehicle in ``turning_s``
+        (turning round), with the back-off point inwards: reversing with the nose held on the dock lets a cross
+        current carry the vehicle on towards the wall, and turning round to drive blind drifts it there while
+        it turns (pool, 0.2 m/s: 1.15 m out, just inside the share, the turn and the blind leg ended on the wall)."""
         side = _unit(g.axis_yaw + math.pi / 2)
-        cross = _dot(s.position_m, side)
+        cross = _dot(s.position_m, side) + turning_s * _dot(s.current_mps, side)
         return (abs(cross) > self.config.wall_first_share * self.config.side_room_m
                 and _dot(to_goal, side) * cross < 0)
 
@@ -445,7 +446,8 @@ class ApproachPlanner:
         reverse = math.atan2(-water[1], -water[0])
         fov = math.radians(c.fov_margin_deg)
         beyond_view = abs(wrap_angle(reverse - g.sight)) - fov
-        wall_first = not blind and self._near_wall(s, g, to_goal)  # reverse straight for the point, in view or not
+        turning_s = abs(wrap_angle(s.heading_rad - reverse - math.pi)) / math.radians(c.turn_rate_deg_s)
+        wall_first = not blind and self._near_wall(s, g, to_goal, turning_s)  # reverse straight for the point
         if not wall_first and g.along >= c.reposition_from_m and (
                 beyond_view > math.radians(c.reposition_beyond_view_deg) or g.along > c.back_off_to_m + 1.0):
             if not blind:  # from this tick on the blind goal and speed

@@ -366,6 +366,20 @@ def test_in_a_pool_a_retry_in_a_cross_current_keeps_off_the_side_wall_and_docks(
     assert abs(auv.nose[1]) < 0.1 and abs(auv.heading) < math.radians(10)
 
 
+def test_in_a_pool_a_back_off_does_not_turn_round_where_the_turn_drifts_it_onto_the_wall():
+    """1 m to the side of the axis, inside the half of the room where reversing in view is allowed, 0.16 m/s
+    setting towards that side's wall 2.38 m out: turning round (9 s) for a blind leg drifts it 1.4 m, and a
+    blind leg's dead reckoning drifts more (simulated pool, seed 27: onto the wall). It reverses straight
+    for its point instead."""
+    planner = ApproachPlanner(ApproachConfig(side_room_m=2.38))
+    position = (-4.8 - AHEAD, -1.0)
+    sight = math.atan2(1.0, 4.8)
+    out = planner.plan(Situation(position, (0.2, -0.16), sight, -0.4, 0.0, AHEAD, 0.4, axis_known=True),
+                       backing_off=True)
+    assert out.speed_mps < -0.3  # in reverse, not turning in place
+    assert abs(math.remainder(out.yaw_rad - sight, 2 * math.pi)) < math.radians(90)
+
+
 def retry_unseen(config=GuidanceConfig(), seconds=80.0):
     """Guidance into a retry 20 deg off the axis in a cross current; from then on the camera sees nothing.
     Returns (time since the retry began, state, transition) for every tick after it."""
