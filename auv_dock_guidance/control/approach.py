@@ -402,6 +402,10 @@ class ApproachPlanner:
         shift = math.copysign(allowed, cross) - cross
         return point[0] + shift * side[0], point[1] + shift * side[1]
 
+    def _turn_s(self, heading_rad: float, goal_rad: float) -> float:
+        """Seconds the heading takes to turn to a goal at ``turn_rate_deg_s``."""
+        return abs(wrap_angle(goal_rad - heading_rad)) / math.radians(self.config.turn_rate_deg_s)
+
     def _near_wall(self, s: Situation, g: _Geometry, to_goal: tuple[float, float], turning_s: float) -> bool:
         """Beyond ``wall_first_share`` of the side room, where the current sets the vehicle in ``turning_s``
         (turning round), with the back-off point inwards: reversing with the nose held on the dock lets a cross
@@ -422,7 +426,7 @@ class ApproachPlanner:
         out = c.reposition_to_m if blind else c.back_off_to_m
         goal = (-out * line[0], -out * line[1])
         if blind:  # up-current of the line by what the current carries the vehicle while it turns to the dock
-            turning_s = abs(wrap_angle(s.heading_rad - g.sight)) / math.radians(c.turn_rate_deg_s)
+            turning_s = self._turn_s(s.heading_rad, g.sight)
             goal = (goal[0] - turning_s * s.current_mps[0], goal[1] - turning_s * s.current_mps[1])
         goal = self._within_walls(goal, g)
         to_goal = (goal[0] - g.nose[0], goal[1] - g.nose[1])
@@ -446,7 +450,7 @@ class ApproachPlanner:
         reverse = math.atan2(-water[1], -water[0])
         fov = math.radians(c.fov_margin_deg)
         beyond_view = abs(wrap_angle(reverse - g.sight)) - fov
-        turning_s = abs(wrap_angle(s.heading_rad - reverse - math.pi)) / math.radians(c.turn_rate_deg_s)
+        turning_s = self._turn_s(s.heading_rad, reverse + math.pi)  # to drive blind
         wall_first = not blind and self._near_wall(s, g, to_goal, turning_s)  # reverse straight for the point
         if not wall_first and g.along >= c.reposition_from_m and (
                 beyond_view > math.radians(c.reposition_beyond_view_deg) or g.along > c.back_off_to_m + 1.0):

@@ -71,7 +71,7 @@ from auv_dock_guidance.control.approach import ApproachConfig, ApproachPlanner, 
 from auv_dock_guidance.control.axis import AxisConfig, AxisEstimator
 from auv_dock_guidance.control.cascade import Attitude, CascadeConfig, CascadeController, Demands, Target
 from auv_dock_guidance.control.mixer import Mixer, MixerConfig, ThrusterCommand
-from auv_dock_guidance.control.tracker import DockTracker, TrackerConfig, dock_from_camera, level_from_body
+from auv_dock_guidance.control.tracker import DockFix, DockTracker, TrackerConfig, dock_from_camera, level_from_body
 from auv_dock_guidance.errors import ConfigError
 from auv_dock_guidance.stamps import StampGate
 
@@ -248,7 +248,8 @@ class Guidance:
         self._since, self._streak = now_s, 0
         self.cascade.reset()
         reason = f"{kind} healthy again for {self.config.recovery_s:.1f} s"
-        close = self._tracked_distance_m()
+        fix = self.tracker.fix() if self.config.follows_path else None
+        close = self._camera_distance_m(fix) if fix is not None else None
         if close is not None and close < self.config.terminal_range_m:
             # SEARCH waits for the ring in view, and this close it is not (it fills the frame or left it):
             # back off along the track until it is.
@@ -258,11 +259,8 @@ class Guidance:
         self.state = State.SEARCH
         return Transition(now_s, State.ABORT, State.SEARCH, reason)
 
-    def _tracked_distance_m(self) -> float | None:
-        """From the camera to the dock by the track (own motion and drift since the last sighting), or None."""
-        fix = self.tracker.fix() if self.config.follows_path else None
-        if fix is None:
-            return None
+    def _camera_distance_m(self, fix: DockFix) -> float:
+        """From the camera to the dock by the track (own motion and drift since the last sighting)."""
         return max(0.0, math.hypot(*fix.position_m) - self.config.tracker.camera_ahead_m)
 
     def _plausible_in_terminal(self, target: Target) -> bool:
@@ -413,12 +411,11 @@ class Guidance:
         if fix is None:
             return None
         axis = self.axis.estimate() if self.config.axis_alignment else None
-        range_m = math.hypot(*fix.position_m)
         situation = Situation(
             position_m=fix.position_m, current_mps=fix.current_mps, heading_rad=attitude.yaw_rad,
             water_speed_mps=self._water_speed, axis_yaw_rad=axis.yaw_rad if axis is not None else None,
             camera_ahead_m=self.config.tracker.camera_ahead_m,
-            nominal_speed_mps=self.cascade.speed_for_range(range_m - self.config.tracker.camera_ahead_m),
+            nominal_speed_mps=self.cascade.speed_for_range(self._camera_distance_m(fix)),
             axis_known=axis is not None and axis.known, dock_in_view=dock_in_view,
             dock_below_m=None if self._dock_depth_m is None else self._dock_depth_m - attitude.depth_m,
         )
