@@ -34,6 +34,7 @@ from auv_dock_guidance.vision.selection import is_ring
 
 _MAX_INNER_MISFIT = 2.5  # an inner outline fitting an ellipse this many times worse than the outer is not the edge
 _INNER_EDGE_QUANTILE = 0.75  # of the hole's outline, relative to the outer ellipse: a filled part lies further in
+_MIN_UNFILLED_HOLE = 0.2  # of the outline's area: a smaller misfitting hole is the lit funnel's hub and struts
 
 
 def fit_region(region: Region, candidates: int, frame_size: tuple[int, int], camera: CameraModel | None,
@@ -62,12 +63,12 @@ def fit_region(region: Region, candidates: int, frame_size: tuple[int, int], cam
     if region.hole is not None and is_ring(region.shape, config.selection):
         inner_fit = fit_ellipse(camera, region.hole)
         if inner_fit is not None and inner_fit[0].semi_major < outer.semi_major:
-            if inner_fit[1] > _MAX_INNER_MISFIT * outer_fit[1]:  # a lit funnel filled part of the hole
-                inner_scale = inner_edge_scale(outer, plane_points(camera, region.hole))
-            else:
+            if inner_fit[1] <= _MAX_INNER_MISFIT * outer_fit[1]:
                 inner = inner_fit[0]
                 cue_noise = math.hypot(inner_fit[1], outer_fit[1])
                 common["fit_sigma"] = 0.5 * cue_noise  # the centre line is the mean of the two outlines
+            elif region.shape.hole_fraction >= _MIN_UNFILLED_HOLE:  # a lit funnel filled part of the hole
+                inner_scale = inner_edge_scale(outer, plane_points(camera, region.hole))
     if inner_scale is not None:  # the outer outline's shape, midway to the hole's edge; its centre offset tells nothing
         centre_line = scaled(outer, 0.5 * (1.0 + inner_scale))
         solution = ring_center_solution(centre_line, marker_radius)
