@@ -72,7 +72,8 @@ class ApproachConfig:
     far_crab_deg: float = 30.0  # largest crab far out (the dock must stay in view)
     crab_near_m: float = 6.0  # along the axis: the entry limit applies below this (settled before the commit)...
     crab_far_m: float = 12.0  # ...and the far limit beyond this
-    heading_limit_growth_deg_per_m: float = 20.0  # the heading clamp against the axis widens with distance
+    heading_limit_growth_deg_per_m: float = 20.0  # the heading clamp against the axis widens with distance...
+    heading_limit_from_m: float = 1.5  # ...beyond this far along the axis (closer it is the entry limit)
     fov_margin_deg: float = 26.0  # the dock stays within this of the nose (the lens sees about 34 deg each way)
     fov_until_m: float = 2.0  # closer than this the ring leaves the frame anyway
     fov_vertical_margin_deg: float = 14.0  # the dock stays within this of the nose vertically (about 20 each way)
@@ -293,7 +294,7 @@ class ApproachPlanner:
             (g.along - c.crab_near_m) / (c.crab_far_m - c.crab_near_m), 0.0, 1.0))
         nominal = max(s.nominal_speed_mps, c.entry_speed_mps) if g.along < c.crab_near_m else s.nominal_speed_mps
         speed, yaw = self._crab(course, s.current_mps, nominal, crab_limit, self._climb_speed(s, g))
-        limit = math.radians(c.entry_crab_deg + c.heading_limit_growth_deg_per_m * max(0.0, g.along - 2.0))
+        limit = math.radians(c.entry_crab_deg + c.heading_limit_growth_deg_per_m * max(0.0, g.along - c.heading_limit_from_m))
         yaw = g.axis_yaw + _clamp(wrap_angle(yaw - g.axis_yaw), -limit, limit)
         if g.distance > c.fov_until_m:
             fov = math.radians(c.fov_margin_deg)

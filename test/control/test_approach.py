@@ -207,11 +207,24 @@ def test_views_biased_beyond_their_own_sigma_do_not_take_turns_as_the_axis():
 def test_close_in_a_cross_current_beyond_the_limit_the_heading_stays_within_it_at_full_speed():
     planner = ApproachPlanner()
     c = planner.config
-    plan = planner.plan(Situation((-1.9 - AHEAD, 0.0), (0.0, 0.3), 0.0, c.max_speed_mps, 0.0, AHEAD, 0.25),
+    inside = c.heading_limit_from_m - 0.1
+    plan = planner.plan(Situation((-inside - AHEAD, 0.0), (0.0, 0.3), 0.0, c.max_speed_mps, 0.0, AHEAD, 0.25),
                         backing_off=False)
     assert plan.speed_mps == c.max_speed_mps
     assert abs(plan.yaw_rad) <= math.radians(c.entry_crab_deg) + 1e-9  # into the current, at most the limit
     assert plan.yaw_rad < 0
+
+
+def test_downstream_of_the_turned_line_two_metres_out_the_heading_may_exceed_the_entry_limit_to_reach_it():
+    """The entry limit clamped the heading from 2 m in, leaving 2 deg beyond the planned crab to get onto
+    a line turned by a strong cross current: seed 42 (0.16 m/s across) was 11 cm downstream of it 2.5 m
+    out, still 7 cm at 1.2 m when the ring left the view, and entered 6.3 cm off. The clamp now
+    tightens to the entry limit only from ``heading_limit_from_m`` in."""
+    planner = ApproachPlanner()
+    c = planner.config
+    plan = planner.plan(Situation((-1.9 - AHEAD, 0.0), (0.0, 0.3), 0.0, c.max_speed_mps, 0.0, AHEAD, 0.25),
+                        backing_off=False)
+    assert -plan.yaw_rad > math.radians(c.entry_crab_deg + 2.0)  # into the current, beyond the entry limit
 
 
 def test_a_vehicle_beside_the_entrance_backs_off_in_reverse_with_the_nose_on_the_dock():
@@ -657,10 +670,10 @@ def test_an_axis_seen_from_one_viewpoint_is_not_known_however_consistent():
 
 
 def test_with_no_retry_left_an_entry_clear_of_the_rim_goes_ahead():
-    """0.52 m off the axis 3.4 m out: the entry is predicted 0.16 m off the centre, beyond the margin that
+    """0.6 m off the axis 3.4 m out: the entry is predicted 0.17 m off the centre, beyond the margin that
     sends the vehicle back, but clear of the rim (entrance 0.35 m less the hull's 0.12 m)."""
     def last_try(tolerance_m):
-        auv = KinematicAuv((-3.4, 0.52), 0.0, (0.0, 0.0))
+        auv = KinematicAuv((-3.4, 0.6), 0.0, (0.0, 0.0))
         auv.speed = 0.3
         out = fly(Guidance(GuidanceConfig(max_retries=0, last_try_tolerance_m=tolerance_m)), auv, seconds=40.0)
         return out, auv
