@@ -294,7 +294,8 @@ class ApproachPlanner:
             (g.along - c.crab_near_m) / (c.crab_far_m - c.crab_near_m), 0.0, 1.0))
         nominal = max(s.nominal_speed_mps, c.entry_speed_mps) if g.along < c.crab_near_m else s.nominal_speed_mps
         speed, yaw = self._crab(course, s.current_mps, nominal, crab_limit, self._climb_speed(s, g))
-        limit = math.radians(c.entry_crab_deg + c.heading_limit_growth_deg_per_m * max(0.0, g.along - c.heading_limit_from_m))
+        widening = c.heading_limit_growth_deg_per_m * max(0.0, g.along - c.heading_limit_from_m)
+        limit = math.radians(c.entry_crab_deg + widening)
         yaw = g.axis_yaw + _clamp(wrap_angle(yaw - g.axis_yaw), -limit, limit)
         if g.distance > c.fov_until_m:
             fov = math.radians(c.fov_margin_deg)

@@ -1,3 +1,4 @@
+import itertools
 import math
 
 import numpy as np
@@ -73,7 +74,7 @@ def _hub_and_struts_px(camera, center_m, hub_m=0.07, reach_m=0.3, half_width_m=0
             corners.append((along * c - side * s, along * s + side * c))
     corners.append(corners[0])
     dense = np.concatenate([np.linspace(p, q, max(2, int(math.dist(p, q) / step_m)), endpoint=False)
-                            for p, q in zip(corners[:-1], corners[1:])])
+                            for p, q in itertools.pairwise(corners)])
     points = np.column_stack([center_m[0] + dense[:, 0], center_m[1] + dense[:, 1], np.full(len(dense), center_m[2])])
     pixels, valid = camera.project(points)
     return pixels[valid]
