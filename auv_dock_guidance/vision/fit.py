@@ -6,7 +6,8 @@ mean is the LED centre line, unbiased by halo or threshold. A lit funnel as brig
 strip on one side fills part of the hole: its outline then fits an ellipse many times worse
 than the outer one does and would squash the centre line (a head-on ring read 20-30 deg
 tilted). The outer ellipse, scaled to where most of the hole's outline lies, is then the
-inner outline. For separate LEDs or arcs the
+inner outline, unless that hole is small: a funnel lit all round leaves only its dark hub
+and struts, and the blob is read as a solid one. For separate LEDs or arcs the
 ellipse goes through all their outlines. A ring the frame cuts gets a circle through
 what is visible (LED centres, or the strip's outer edge): the bearing that turns the
 vehicle towards it, and a rougher range. A solid blob (a hole a lit funnel filled) has
