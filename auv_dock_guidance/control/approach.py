@@ -261,12 +261,13 @@ class ApproachPlanner:
         return c.max_speed_mps if room <= 0.05 else need * following / room
 
     def _depth_left(self, s: Situation, g: _Geometry, ground: float, speed: float) -> float:
-        """Depth error still left ``level_by_m`` before the entrance. The vertical law climbs at the held
-        pitch while the error exceeds that pitch's worth of lookahead, then closes it exponentially
-        over the lookahead; the vehicle must be level by then, since the nose pitched up rides a
-        camera-lever higher (seed 70 was still climbing at 8 deg at the entrance, 7.6 cm high)."""
+        """Depth error still left at the entrance. The vertical law climbs at the held pitch while the
+        error exceeds that pitch's worth of lookahead, then closes it exponentially over the lookahead
+        (a straight climb to the entrance passed seed 70, still 0.5 m low 3 m out: it entered pitched up
+        8 deg, the nose 7.6 cm high). Asked a metre earlier, it sent pool approaches in a 0.2 m/s current
+        back that would have docked, and the retries ran into the walls (pool 39/40 -> 35/40)."""
         need = abs(s.dock_below_m or 0.0)
-        run = max(g.along - self.config.level_by_m, 0.0)  # over ground
+        run = g.along  # over ground
         climb = self._climb_per_metre() * abs(speed) / ground  # per metre over ground, at the held pitch
         span = self._lookahead(g.along)
         saturated = max(0.0, need - climb * span) / max(climb, 1e-6)  # metres climbing at the held pitch

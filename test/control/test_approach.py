@@ -531,14 +531,14 @@ def test_on_centre_but_still_well_below_the_dock_close_in_the_entry_would_miss()
 
 
 
-def test_still_climbing_close_in_it_backs_off_unless_it_is_level_on_the_docks_depth_a_metre_out():
+def test_still_climbing_close_in_it_backs_off_unless_the_laws_tail_reaches_the_docks_depth():
     """Seed 70 started 10 m out 1.7 m below the dock, climbed at the held pitch all the way, and at 3 m
     was still 0.5 m low: entering still pitched up 8 deg put the nose 7.6 cm high. Climbing at full
-    pitch from there, the law's exponential tail leaves it short of level a metre before the entrance."""
+    pitch from there, the law's exponential tail leaves it short of the dock's depth at the entrance."""
     planner = ApproachPlanner()
-    on_centre = Situation((-2.9 - AHEAD, 0.0), (0.0, 0.0), 0.0, 0.8, 0.0, AHEAD, 0.8, dock_below_m=-0.5)
+    on_centre = Situation((-2.9 - AHEAD, 0.0), (0.0, 0.0), 0.0, 0.8, 0.0, AHEAD, 0.8, dock_below_m=-0.6)
     assert planner.plan(on_centre, backing_off=False).verdict is Verdict.WOULD_MISS
-    nearly = replace(on_centre, dock_below_m=-0.15)
+    nearly = replace(on_centre, dock_below_m=-0.3)
     assert planner.plan(nearly, backing_off=False).verdict is Verdict.GO
 
 SIDESTEPPING = GuidanceConfig(approach=ApproachConfig(sidestep=True))
