@@ -165,7 +165,7 @@ def test_run_stopped_or_killed_leaves_no_node_and_the_thrusters_neutral(sig, mar
     assert any(r.pwm_us != NEUTRAL for r in records), "guidance never drove: nothing to stop"
     assert records[-1].pwm_us == NEUTRAL and controller.applied == NEUTRAL
     if sig == signal.SIGTERM:
-        assert code == 0 and "stopping (SIGTERM)" in out and f"--domain-id {domain_id}" in out.splitlines()[1]
+        assert code == 0 and "stopping (SIGTERM)" in out and f"--domain-id {domain_id}" in out.splitlines()[1], out
     else:
         assert code == -signal.SIGKILL
 
