@@ -267,13 +267,12 @@ class ApproachPlanner:
         8 deg, the nose 7.6 cm high). Asked a metre earlier, it sent pool approaches in a 0.2 m/s current
         back that would have docked, and the retries ran into the walls (pool 39/40 -> 35/40)."""
         need = abs(s.dock_below_m or 0.0)
-        run = g.along  # over ground
         climb = self._climb_per_metre() * abs(speed) / ground  # per metre over ground, at the held pitch
         span = self._lookahead(g.along)
         saturated = max(0.0, need - climb * span) / max(climb, 1e-6)  # metres climbing at the held pitch
-        if saturated >= run:
-            return need - climb * run
-        return min(need, climb * span) * math.exp(-(run - saturated) / span)
+        if saturated >= g.along:
+            return need - climb * g.along
+        return min(need, climb * span) * math.exp(-(g.along - saturated) / span)
 
     def _geometry(self, s: Situation) -> _Geometry:
         h = _unit(s.heading_rad)
