@@ -56,7 +56,7 @@ class Refiner:
         x0, y0, x1, y1 = box
         scale = min(1.0, c.refine_radius_px / max(radius_estimate, 1.0))
         roi = image[y0:y1, x0:x1]
-        if min(roi.shape[:2]) * scale < 4:  # a sliver at the frame's edge (scaled, it was 0 px and resize raised)
+        if round(min(roi.shape[:2]) * scale) < 4:  # a sliver at the frame's edge (as resize rounds: 0 px raised)
             return []
         if scale < 1.0:
             roi = cv2.resize(roi, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
