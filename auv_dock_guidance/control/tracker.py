@@ -118,21 +118,25 @@ class DockTracker:
         self._p = f @ self._p @ f.T + q
         self._rejected = [(z + motion, r + q[:2, :2]) for z, r in self._rejected]  # carried on as the track is
 
-    def update(self, target: Target, attitude: Attitude) -> bool:
-        """Correct with a detection; False if it was rejected as an outlier."""
+    def update(self, target: Target, attitude: Attitude, may_restart: bool = True) -> bool:
+        """Correct with a detection; False if it was rejected as an outlier. With ``may_restart`` False (a ring
+        the frame cuts close in: its bearing holds, its range may not) it neither starts nor restarts the track."""
         c = self.config
         dock = dock_from_camera(target, attitude)
         z = self._position_from(dock, attitude)
         r = self._measurement_noise(dock)
         if self._x is None or not c.estimate_current:
-            self._start(z, r, target.stamp_s)
-            return True
+            if may_restart:
+                self._start(z, r, target.stamp_s)
+            return may_restart
         h = np.hstack([np.eye(2), np.zeros((2, 3))])
         s = h @ self._p @ h.T + r
         innovation = z - h @ self._x
         distance = float(innovation @ np.linalg.solve(s, innovation))
         if not math.isfinite(distance) or distance > c.gate_chi2:
             self.rejected += 1
+            if not may_restart:
+                return False
             self._rejected = [(old, r_old) for old, r_old in self._rejected
                               if _agree(z - old, r + r_old, c.gate_chi2)] + [(z, r)]
             if len(self._rejected) >= c.max_rejections and self._may_restart(z, s, target.stamp_s):

@@ -155,6 +155,25 @@ def test_rejected_detections_restart_the_track_only_when_they_agree_and_are_with
     assert tracker_after([25.0, 25.0, 25.0], unseen_s=20.0) == pytest.approx(25.0, rel=0.01)  # lost long enough
 
 
+def test_a_ring_the_frame_cuts_close_in_moves_the_position_but_never_restarts_the_track():
+    """Inside the blind range (0.75-1.15 m) a ring the frame cuts top and bottom still gives a good bearing:
+    the track takes it where it agrees. A wild one (a circle through a few lights at the frame's edge) is
+    dropped however many agree, where whole rings that agree would restart the track."""
+    def offset_after(offsets_m, may_restart):
+        tracker = DockTracker()
+        for i, offset in enumerate([0.0] * 20 + offsets_m):  # whole rings from 2.7 m in still water, then cut ones
+            t, whole = 0.1 * i, i < 20
+            if i:
+                tracker.predict(0.1, (0.07, 0.0))  # on towards the dock at 0.7 m/s
+            tracker.update(Target(t, 2.7 - 0.07 * i, offset, 0.0), Attitude(t, 0.0, 0.0, 0.0),
+                           may_restart=whole or may_restart)
+        return -tracker.fix().position_m[1]  # the dock's offset to starboard
+
+    assert offset_after([0.02] * 4, may_restart=False) == pytest.approx(0.02, abs=0.006)
+    assert offset_after([0.4] * 4, may_restart=False) == pytest.approx(0.0, abs=1e-6)
+    assert offset_after([0.4] * 4, may_restart=True) == pytest.approx(0.4, abs=0.01)
+
+
 def test_the_axis_is_told_from_its_mirror_once_the_view_moves():
     axis = AxisEstimator()
     for i in range(40):  # one viewpoint: the two candidates explain the views equally well

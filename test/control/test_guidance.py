@@ -145,3 +145,22 @@ def test_a_frame_without_the_marker_restarts_the_confirmation():
     g.marker_missed()
     g.update(0.2, target(0.2), level(0.2))
     assert g.state is State.SEARCH
+
+
+def test_in_the_terminal_phase_a_ring_cut_close_in_fixes_the_track_sideways_and_nothing_else():
+    """Closer than ``blind_range_m`` the ring is cut by the frame: the state machine holds its last good
+    goal, but down to ``close_fix_range_m`` the track's position follows the cut ring's bearing (the
+    blind run is shorter). With the close fixes off the track runs on blind."""
+    def sideways_after(config):
+        g = Guidance(config)
+        run(g, 1.0, lambda t: target(t, range_m=2.0))
+        assert g.state is State.TERMINAL
+        t = 1.0
+        while (seen := math.hypot(*g.tracker.fix().position_m) - config.tracker.camera_ahead_m) > 0.8:
+            g.update(t, target(t, range_m=seen, x=0.02 if seen < config.blind_range_m else 0.0), level(t))
+            t += 1 / 30
+        assert g.state is State.TERMINAL and g.last_target.range_m >= config.blind_range_m
+        return -g.tracker.fix().position_m[1]
+
+    assert sideways_after(GuidanceConfig()) > 0.01
+    assert abs(sideways_after(GuidanceConfig(close_fix_range_m=1.15))) < 0.002
