@@ -41,7 +41,9 @@ MAX_CIRCLE_RESIDUAL = 0.2  # the same from a circle through few LEDs: scatter an
 MAX_COUNT_UNKNOWN = 32  # beyond this many LEDs they merge into a strip; the outline path takes them
 SEED_LIGHTS = 16  # the strongest lights that seed hypotheses (all of them can confirm one)
 MAX_SPACING_SIZES = 30.0  # LEDs further apart than this many of their radii: specks that happen to line up
-# (not asked of bumps on a lit region's outline: their size is the LED's part outside the rim, not the LED's)
+# (not asked of bumps on a lit region's outline: their size is the LED's part outside the rim, not the LED's;
+# nor of MIN_LEDS_UNKNOWN_COUNT or more LEDs at the even steps of a count the user gave: a sparse ring of
+# small LEDs close in, six 1 cm domes round a 0.35 m ring, is 70 of their radii apart)
 ALIKE = 2.5  # the LEDs of one ring are alike: size and brightness within this factor of their median
 GLOW_SATURATION_RATIO = 1.6  # a ring whose palest glow is this much paler than another ring's: what LEDs light
 REFITS = 12  # hypotheses refitted per LED count, those the most lights confirm
@@ -303,7 +305,7 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
         seen.add(members)
         starts.append((found[h, slots], slots))
     rings = []
-    for ring in _Refitter(points, blobs, free, count, in_view).refit(starts, fewest):
+    for ring in _Refitter(points, blobs, free, count, in_view, count_known).refit(starts, fewest):
         if ring is None:
             continue
         coloured = ring.glow_saturation >= COLOURED_GLOW_SATURATION  # False when not told (NaN)
@@ -447,8 +449,9 @@ class _Refitter:
     """
 
     def __init__(self, points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, count: int,
-                 in_view: InView | None) -> None:
+                 in_view: InView | None, count_known: bool) -> None:
         self.points, self.blobs, self.free, self.count, self.in_view = points, blobs, free, count, in_view
+        self.count_known = count_known
         self.peak = np.array([b.peak for b in blobs])
         self.radius = np.array([b.radius_px for b in blobs])
         self.on_outline = np.array([b.on_outline for b in blobs], bool)
@@ -503,7 +506,9 @@ class _Refitter:
         model, homography = fitted
         points = self.points[lights]
         spacing = float(np.mean(_distance(_next(model, 0), model)))
-        if spacing > MAX_SPACING_SIZES * median(self.radius[lights]) and not self.on_outline[lights].all():
+        sparse_ring_told = self.count_known and len(lights) >= MIN_LEDS_UNKNOWN_COUNT
+        if (spacing > MAX_SPACING_SIZES * median(self.radius[lights]) and not sparse_ring_told
+                and not self.on_outline[lights].all()):
             return None
         residual = float(np.sqrt(np.mean(np.sum((points - model[slots]) ** 2, axis=1)))) / max(spacing, 1e-9)
         (center, a, b), tolerance = _ring_fit(points, slots, self.count)

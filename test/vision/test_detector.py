@@ -243,6 +243,23 @@ def _detect_in_open_water(world, pose, noise):
     return Detector(LOOP_CAMERA, DetectorConfig(marker_radius_m=world.entrance_radius_m)).detect(image), truth
 
 
+@pytest.mark.parametrize("range_m", [3.0, 5.0])
+def test_six_small_leds_round_a_lit_funnel_are_a_ring_when_the_user_gives_their_count(range_m):
+    """The open-water dock of closed-loop episode 20 (six blue LEDs, 3 px across at 3 m, round a grey
+    funnel with vanes), its count told as a user would. Six even steps are the evidence; the LEDs lie
+    35 of their radii apart, which a gate against specks lining up once refused (found at 4 m only),
+    and with the count given the funnel's outline is not taken instead."""
+    world = _open_water_world(20)
+    assert world.scene.led_count == 6
+    pose = _facing_the_dock(world, range_m)
+    for noise in range(1, 3):
+        image, truth = render(LOOP_CAMERA, world.scene_for(pose, seed=noise))
+        config = DetectorConfig(marker_radius_m=world.entrance_radius_m, led_count=6)
+        detection = Detector(LOOP_CAMERA, config).detect(image)
+        assert detection.found and detection.led_count == 6 and len(detection.leds) == 6, (noise, detection.reason)
+        assert math.hypot(detection.u - truth.center_px[0], detection.v - truth.center_px[1]) < 0.02 * truth.radius_px
+
+
 def test_a_distant_ring_whose_leds_bloom_into_one_glow_is_found_from_its_leds():
     """The open-water dock of closed-loop episode 22 (nine white LEDs round a lit hub) 11 m
     straight ahead, in six draws of the camera noise: the LEDs' halos merge into one glow
