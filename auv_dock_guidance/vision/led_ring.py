@@ -33,7 +33,9 @@ from auv_dock_guidance.vision.levels import median
 MIN_LEDS_KNOWN_COUNT = 3  # a corner: three neighbouring LEDs of a ring of known count
 MIN_LEDS_UNKNOWN_COUNT = 5  # without the count, fewer could be any lights that happen to lie on a circle...
 MIN_COLOURED_LEDS_UNKNOWN_COUNT = 4  # ...unless they all glow clearly in colour (lamps and glints are white)
-MIN_OCCUPANCY = 0.75  # share of the LEDs expected in view that must be found (some may be dead or hidden)
+MIN_OCCUPANCY = 0.75  # share of the LEDs expected in view that must be found (some may be dead or hidden)...
+MIN_OCCUPANCY_TOLD = 0.6  # ...with the count given, from TOLD_RING_LEDS found: LEDs blooming into a lit funnel
+TOLD_RING_LEDS = 6  # or under a lamp's glare are lost to the search, and six at N even steps are no chance
 MATCH_TOLERANCE = 0.3  # of the local LED spacing: how far a light may be from where three LEDs predict it
 FIT_TOLERANCE = 0.15  # the same, from the model fitted to all the ring's LEDs
 MAX_RESIDUAL = 0.1  # rms distance of the LEDs from the fitted model / LED spacing: centroid scatter only
@@ -465,7 +467,7 @@ class _Refitter:
         image, so the final residual is the centroids' scatter, not the model's), keeping
         only lights alike in size and brightness. None when the lights stray from the model
         by more than its tolerance, or when fewer than MIN_OCCUPANCY of the LEDs expected in
-        view are left, or fewer than ``fewest`` lights."""
+        view are left (MIN_OCCUPANCY_TOLD of a count given, from TOLD_RING_LEDS), or fewer than ``fewest`` lights."""
         current: list[tuple[np.ndarray, np.ndarray] | None] = list(starts)
         expected = [0] * len(starts)
         fitted: list[tuple[np.ndarray, np.ndarray | None] | None] = [None] * len(starts)
@@ -479,7 +481,8 @@ class _Refitter:
                 lights, slots = self._alike(*start)
                 key = (lights.tobytes(), slots.tobytes())
                 # The last round fits only the lights that fill enough of the slots in view to be a ring.
-                enough = len(lights) >= 3 and (rematch or len(lights) / max(1, expected[i]) >= MIN_OCCUPANCY)
+                occupancy = len(lights) / max(1, expected[i])
+                enough = len(lights) >= 3 and (rematch or occupancy >= self._least_occupancy(len(lights)))
                 fitted[i] = self._fit(key, lights, slots) if enough else None
                 current[i], keys[i] = ((lights, slots), key) if fitted[i] is not None else (None, None)
             if rematch:
@@ -491,6 +494,9 @@ class _Refitter:
                         current[i] = (lights, slots)
         return [None if start is None or fit is None else self._ring(*start, expected[i], fit)
                 for i, (start, fit) in enumerate(zip(current, fitted, strict=True))]
+
+    def _least_occupancy(self, lights: int) -> float:
+        return MIN_OCCUPANCY_TOLD if self.count_known and lights >= TOLD_RING_LEDS else MIN_OCCUPANCY
 
     def _match(self, models: list[tuple[tuple[bytes, bytes], np.ndarray]]) -> None:
         """The lights at the slots of each model not matched yet, all in one batch."""

@@ -77,3 +77,14 @@ def test_single_lights_pairs_and_scattered_lights_make_no_ring():
 def test_a_ring_missing_leds_in_view_is_refused_when_too_few_are_there():
     points = _ring(slots=(0, 1, 2, 4, 6))  # 5 of 8, all slots in view
     assert assemble_rings(points, _blobs(points), None, 8) == []
+    points = _ring(count=11, slots=(0, 1, 2, 4, 6, 8))  # 6 of 11
+    assert assemble_rings(points, _blobs(points), None, 11) == []
+
+
+def test_seven_of_eleven_leds_of_a_given_count_are_a_ring():
+    """Four of the eleven lost to the search (blooming into a lit funnel, under a lamp's glare): with
+    the count given, seven at its even steps are the ring (three quarters are asked without it)."""
+    points = _ring(count=11, slots=(0, 1, 2, 3, 5, 6, 8))
+    ring = assemble_rings(points, _blobs(points), None, 11)[0]
+    assert len(ring.members) == 7 and ring.count == 11
+    assert ring.center == pytest.approx((300.0, 250.0), abs=0.5)
