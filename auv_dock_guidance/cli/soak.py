@@ -16,18 +16,22 @@ A reaction that comes too late is a deadline miss; one that is wrong (no neutral
 thrust right after a re-plug, an abort under line noise) is a wrong reaction. A fault is
 survived when the system tracks the dock again within 30 s with every node process
 running. When the vehicle docks or stalls it is put back at a new start and
-guidance re-armed.
+guidance re-armed. A camera that falls silent for the soak as well as for guidance
+(a vision process starved on a loaded machine) must stop the vehicle whatever fault
+runs then: that ABORT is reported as a camera gap, not as a wrong reaction.
 """
 
 from __future__ import annotations
 
 import argparse
+import bisect
+import itertools
 import math
 import signal
 import sys
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -36,6 +40,7 @@ import numpy as np
 
 from auv_dock_guidance.cli.common import domain_id, positive_float, print_json, rounded
 from auv_dock_guidance.cli.progress import Progress
+from auv_dock_guidance.control.guidance import CAMERA_SILENT, GuidanceConfig
 from auv_dock_guidance.launcher import StopRequested, announce, private_domain_id, registered, rss_mb, stop_on_signals
 from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
 
@@ -46,7 +51,9 @@ NEUTRAL = (1500, 1500, 1500, 1500)
 VISION = "vision_pipeline"  # the process of camera_ingest and detector
 FAILSAFE_DEADLINE_S = 0.2  # neutral at the thrusters within 200 ms of the last command
 TELEMETRY_DEADLINE_S = 0.5 + 0.1  # guidance's telemetry timeout plus a control tick and transport
-CAMERA_DEADLINE_S = 1.0 + 0.6  # guidance's camera timeout, as above
+CAMERA_TIMEOUT_S = GuidanceConfig.camera_timeout_s
+CAMERA_DEADLINE_S = CAMERA_TIMEOUT_S + 0.6  # guidance's camera timeout, as above
+GAP_SLACK_S = 0.2  # the soak and guidance time the same frames, each on its own schedule
 RECOVERY_S = 30.0
 
 
@@ -66,6 +73,7 @@ class Outcome:
     reaction_ms: float | None = None  # time to neutral (to the link back, after a re-plug)
     late: str | None = None  # the deadline was missed
     wrong: str | None = None  # the reaction itself was wrong
+    camera_gap: str | None = None  # guidance stopped for a camera the soak saw silent too: right under any fault
 
 
 def _nothing(system: SimulatedSystem) -> None:
@@ -137,7 +145,7 @@ def _soak(args: argparse.Namespace, domain: int) -> int:
     system = SimulatedSystem(world, _start_pose(rng, world), logs, domain_id=domain)
     state = {"value": "starting"}
     since_fault: set[str] = set()  # every state guidance reported since the last fault
-    frames = [0]
+    frame_times: list[float] = []
     transitions: list[tuple[float, str]] = []
     def on_state(m: String) -> None:
         state["value"] = m.data
@@ -147,7 +155,7 @@ def _soak(args: argparse.Namespace, domain: int) -> int:
         transitions.append((time.monotonic(), m.data))
 
     def on_detected(m: Bool) -> None:
-        frames[0] += 1
+        frame_times.append(time.monotonic())
 
     system.node.create_subscription(String, "guidance/state", on_state, 10)
     system.node.create_subscription(String, "guidance/transition", on_transition, 10)
@@ -178,7 +186,7 @@ def _soak(args: argparse.Namespace, domain: int) -> int:
             if time.monotonic() >= next_fault and state["value"] == "TRACK" and range_left > 4.0:
                 fault = FAULTS[len(injected) % len(FAULTS)]
                 injected.append(fault.name)
-                outcomes.append(_inject(fault, system, transitions))
+                outcomes.append(_inject(fault, system, transitions, frame_times))
                 if not _recovered(system, since_fault):
                     not_survived.append(f"{fault.name} #{len(injected)} at {time.monotonic() - t0:.0f} s")
                 next_fault = time.monotonic() + args.fault_every
@@ -191,18 +199,19 @@ def _soak(args: argparse.Namespace, domain: int) -> int:
     minutes = (time.monotonic() - t0) / 60.0
     late = [o.late for o in outcomes if o.late]
     wrong = [o.wrong for o in outcomes if o.wrong]
+    camera_gaps = [o.camera_gap for o in outcomes if o.camera_gap]
     worst_ms: dict[str, float] = {}
     for name, outcome in zip(injected, outcomes, strict=True):
         if outcome.reaction_ms is not None:
             worst_ms[name] = max(outcome.reaction_ms, worst_ms.get(name, 0.0))
     report = {
-        "minutes": rounded(minutes, 2), "frames": frames[0], "deadline_misses": len(late),
+        "minutes": rounded(minutes, 2), "frames": len(frame_times), "deadline_misses": len(late),
         "rss_start_mb": rounded(rss_start, 1), "rss_end_mb": rounded(rss_end, 1),
         "rss_growth_pct": rounded(100.0 * (rss_end - rss_start) / rss_start, 1) if rss_start else None,
         "faults_injected": len(injected), "faults_survived": len(injected) - len(not_survived), "dockings": dockings,
         "worst_reaction_ms": {k: rounded(v, 0) for k, v in worst_ms.items()},
         "faults": injected, "not_survived": not_survived,
-        "late": late, "wrong_reactions": wrong, "node_exit_codes": codes, "logs": str(logs),
+        "late": late, "wrong_reactions": wrong, "camera_gaps": camera_gaps, "node_exit_codes": codes, "logs": str(logs),
         "ros_domain_id": domain, "stopped_by": stopped_by,
     }
     if args.json:
@@ -213,7 +222,8 @@ def _soak(args: argparse.Namespace, domain: int) -> int:
     return 0 if not late and not wrong and not not_survived and stopped_by is None else 1
 
 
-def _inject(fault: Fault, system: SimulatedSystem, transitions: list[tuple[float, str]]) -> Outcome:
+def _inject(fault: Fault, system: SimulatedSystem, transitions: list[tuple[float, str]],
+            frame_times: Sequence[float]) -> Outcome:
     """Inject, observe, clear, and judge what reached the main controller."""
     start = time.monotonic()
     fault.inject(system)
@@ -239,12 +249,25 @@ def _inject(fault: Fault, system: SimulatedSystem, transitions: list[tuple[float
         if after[0].pwm_us != NEUTRAL:
             return Outcome(wrong=f"{name}: the first command after the link returned was {after[0].pwm_us}")
         return Outcome(1000 * (after[0].time_s - back))
-    aborts = [text for t, text in transitions if t >= start and "-> ABORT" in text]
+    aborts = [(t, text) for t, text in transitions if t >= start and "-> ABORT" in text]
     if aborts:
-        return Outcome(wrong=f"{name}: {aborts[0]}")
+        return judge_abort(name, *aborts[0], frame_times)
     if not any(r.pwm_us != NEUTRAL for r in records if r.time_s >= time.monotonic() - 1.0):
         return Outcome(wrong=f"{name}: thrust stopped")
     return Outcome()
+
+
+def judge_abort(fault: str, at_s: float, transition: str, frame_times: Sequence[float]) -> Outcome:
+    """An ABORT under a fault that thrust must go on through is wrong, unless it was for a silent camera
+    and no frame reached the soak either for about as long (the longest gap before the abort)."""
+    if CAMERA_SILENT not in transition:
+        return Outcome(wrong=f"{fault}: {transition}")
+    first = max(bisect.bisect_left(frame_times, at_s - CAMERA_TIMEOUT_S - 2.0) - 1, 0)
+    points = [*frame_times[first:bisect.bisect_right(frame_times, at_s)], at_s]
+    gap = max((b - a for a, b in itertools.pairwise(points)), default=math.inf)
+    if gap < CAMERA_TIMEOUT_S - GAP_SLACK_S:
+        return Outcome(wrong=f"{fault}: {transition} (frames reached the soak at most {gap:.2f} s apart)")
+    return Outcome(camera_gap=f"{fault}: {transition} (no frame reached the soak for {gap:.1f} s either)")
 
 
 def _recovered(system: SimulatedSystem, since_fault: set[str]) -> bool:

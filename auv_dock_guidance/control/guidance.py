@@ -89,6 +89,7 @@ class State(StrEnum):
 
 
 _DOCK_DEPTH_MEMORY = 40  # detections the dock's depth is taken from (2-4 s of frames)
+CAMERA_SILENT = "no camera frame"  # how the reason of an ABORT for a silent camera begins
 
 
 @dataclass(frozen=True)
@@ -480,7 +481,7 @@ class Guidance:
                 self._streak = 0  # no tracking without navigation
         elif self._camera_silent(now_s) and previous in driving:
             new_state = State.ABORT
-            reason = f"no camera frame for {now_s - (self._last_frame_s or now_s):.1f} s"
+            reason = f"{CAMERA_SILENT} for {now_s - (self._last_frame_s or now_s):.1f} s"
             self._abort_kind = "camera"
         elif abs(attitude.roll_rad) > c.max_roll_rad or abs(attitude.pitch_rad) > c.max_pitch_rad:
             new_state = State.ABORT

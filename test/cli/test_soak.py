@@ -1,7 +1,7 @@
 import json
 
 from auv_dock_guidance.cli.main import main
-from auv_dock_guidance.cli.soak import FAULTS
+from auv_dock_guidance.cli.soak import FAULTS, judge_abort
 
 
 def test_short_soak_survives_every_kind_of_fault(capsys):
@@ -17,3 +17,20 @@ def test_short_soak_survives_every_kind_of_fault(capsys):
     assert report["frames"] > 0 and report["node_exit_codes"] == {"vision_pipeline": 0, "guidance": 0,
                                                                   "serial_bridge": 0}
     assert code in (0, 1) and (code == 0) == (report["deadline_misses"] == 0)
+
+
+FRAMES_30HZ = [i / 30 for i in range(300)]  # 10 s of frames
+
+
+def test_an_abort_for_a_camera_the_soak_saw_silent_too_is_a_camera_gap_not_a_wrong_reaction():
+    starved = [t for t in FRAMES_30HZ if not 5.0 < t < 6.3]  # the vision process got no CPU for 1.3 s
+    outcome = judge_abort("line_noise", 6.1, "TRACK -> ABORT: no camera frame for 1.0 s", starved)
+    assert outcome.wrong is None and "1.1 s" in outcome.camera_gap
+
+
+def test_an_abort_while_frames_flowed_is_a_wrong_reaction():
+    flowing = judge_abort("line_noise", 6.1, "TRACK -> ABORT: no camera frame for 1.0 s", FRAMES_30HZ)
+    assert flowing.camera_gap is None and "0.03 s apart" in flowing.wrong
+    other = judge_abort("line_noise", 6.1, "TRACK -> ABORT: telemetry from the main controller is stale or invalid",
+                        [t for t in FRAMES_30HZ if not 5.0 < t < 6.3])
+    assert other.camera_gap is None and other.wrong.startswith("line_noise: TRACK -> ABORT: telemetry")
