@@ -135,6 +135,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _soak(args: argparse.Namespace, domain: int) -> int:
+    from diagnostic_msgs.msg import DiagnosticArray
     from std_msgs.msg import Bool, String
 
     from auv_dock_guidance.sim_system import SimulatedSystem
@@ -147,6 +148,7 @@ def _soak(args: argparse.Namespace, domain: int) -> int:
     since_fault: set[str] = set()  # every state guidance reported since the last fault
     frame_times: list[float] = []
     transitions: list[tuple[float, str]] = []
+    guidance_status = {"value": "none"}  # guidance's newest /diagnostics entry, for a failed recovery
     def on_state(m: String) -> None:
         state["value"] = m.data
         since_fault.add(m.data)
@@ -157,9 +159,16 @@ def _soak(args: argparse.Namespace, domain: int) -> int:
     def on_detected(m: Bool) -> None:
         frame_times.append(time.monotonic())
 
+    def on_diagnostics(m: DiagnosticArray) -> None:
+        for status in m.status:
+            if status.name.endswith(": guidance"):
+                values = ", ".join(f"{v.key} {v.value}" for v in status.values)
+                guidance_status["value"] = f"{status.message} ({values})"
+
     system.node.create_subscription(String, "guidance/state", on_state, 10)
     system.node.create_subscription(String, "guidance/transition", on_transition, 10)
     system.node.create_subscription(Bool, "dock/detected", on_detected, 100)
+    system.node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 10)
     group = system.group
     injected: list[str] = []
     not_survived: list[str] = []  # which, and when: to find it in the node logs
@@ -188,7 +197,8 @@ def _soak(args: argparse.Namespace, domain: int) -> int:
                 injected.append(fault.name)
                 outcomes.append(_inject(fault, system, transitions, frame_times))
                 if not _recovered(system, since_fault):
-                    not_survived.append(f"{fault.name} #{len(injected)} at {time.monotonic() - t0:.0f} s")
+                    seen = _unrecovered(system, since_fault, frame_times, guidance_status["value"])
+                    not_survived.append(f"{fault.name} #{len(injected)} at {time.monotonic() - t0:.0f} s ({seen})")
                 next_fault = time.monotonic() + args.fault_every
         rss_end = sum(rss_mb(p.pid) for p in group.processes.values())
     except KeyboardInterrupt as exc:
@@ -268,6 +278,18 @@ def judge_abort(fault: str, at_s: float, transition: str, frame_times: Sequence[
     if gap < CAMERA_TIMEOUT_S - GAP_SLACK_S:
         return Outcome(wrong=f"{fault}: {transition} (frames reached the soak at most {gap:.2f} s apart)")
     return Outcome(camera_gap=f"{fault}: {transition} (no frame reached the soak for {gap:.1f} s either)")
+
+
+def _unrecovered(system: SimulatedSystem, since_fault: set[str], frame_times: Sequence[float],
+                 guidance_status: str) -> str:
+    """What the soak saw of a system that did not recover; each node's threads' stacks go to its log
+    (nodes.common registers SIGUSR1 with faulthandler), to tell a deaf node from a hung one."""
+    for process in system.group.processes.values():
+        if process.poll() is None:
+            process.send_signal(signal.SIGUSR1)
+    said = ", ".join(sorted(since_fault)) or "nothing"
+    last_frame = f"{time.monotonic() - frame_times[-1]:.1f} s ago" if frame_times else "never"
+    return f"guidance said {said}; its diagnostics {guidance_status}; last frame {last_frame}; stacks in the logs"
 
 
 def _recovered(system: SimulatedSystem, since_fault: set[str]) -> bool:

@@ -137,9 +137,9 @@ class GuidanceNode(Node):
         on_parameter_change(self, self._apply_parameters)
         # Navigation first: after a stall of this process the executor takes one message per
         # subscription per round in this order, so a queued detection meets the queued attitude.
-        self.create_subscription(Imu, "vehicle/imu", self._on_imu, 10)
+        self._imu_sub = self.create_subscription(Imu, "vehicle/imu", self._on_imu, 10)
         self.create_subscription(Float64, "vehicle/depth", self._on_depth, 10)
-        self.create_subscription(PointStamped, "dock/target", self._on_target, 10)
+        self._target_sub = self.create_subscription(PointStamped, "dock/target", self._on_target, 10)
         self.create_subscription(PoseWithCovarianceStamped, "dock/pose", self._on_pose, 10)
         self._pose_seen_s: float | None = None  # node clock when dock/pose last came
         self.create_subscription(Bool, "vehicle/docked", self._on_docked, 10)
@@ -302,6 +302,9 @@ class GuidanceNode(Node):
         return diagnostic_status("guidance", "guidance", level, message, {
             "state": state.value, "last_transition": self._last_transition,
             "telemetry_age_s": f"{telemetry_age:.3f}", "clock_steps_back": self.guidance.clock_steps_back,
+            # matched writers: 0 with a bridge or detector running means this process does not hear them
+            "imu_publishers": self._imu_sub.get_publisher_count(),
+            "target_publishers": self._target_sub.get_publisher_count(),
             **self.problems.values(),
         })
 
