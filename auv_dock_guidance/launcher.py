@@ -25,7 +25,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,9 +46,11 @@ NODES_OF = {"vision_pipeline": ("camera_ingest", "detector")}  # parameter secti
 VISION_COMBINED = ["vision_pipeline", "guidance", "serial_bridge"]
 VISION_SEPARATE = ["camera_ingest", "detector", "guidance", "serial_bridge"]
 # Processes that never carry frames stay off shared memory: a killed process can leave a
-# Fast DDS port lock behind that leaves its restart deaf (see config/fastdds_udp_only.xml).
+# Fast DDS port lock behind that leaves its restart deaf, or holds a publish to it for 1-3 s
+# (see config/fastdds_udp_only.xml and config/fastdds_udp_localhost.xml).
 UDP_ONLY = {"guidance", "serial_bridge"}
 PROFILES_VARIABLE = "FASTRTPS_DEFAULT_PROFILES_FILE"
+RANGE_VARIABLE = "ROS_AUTOMATIC_DISCOVERY_RANGE"
 BRIDGE = "serial_bridge"  # stopped first: it leaves the thrusters neutral as it closes
 # Frame work yields the CPU to the control path when the computer is short of it: a late
 # frame is dropped (only the newest is processed), late telemetry aborts the approach.
@@ -57,6 +59,15 @@ YIELDING = {"camera_ingest", "detector", "vision_pipeline"}
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 LAUNCHER_VARIABLE = "AUV_DOCK_LAUNCHER_PID"  # set for the nodes it starts: they end when it does
 _PR_SET_PDEATHSIG = 1  # linux/prctl.h
+
+
+def udp_only_environment(env: Mapping[str, str]) -> dict[str, str]:
+    """What a process kept off shared memory needs set: a localhost-only system gets UDP on
+    the loopback interface with the discovery range SUBNET, since under LOCALHOST rmw_fastrtps
+    adds shared memory to whatever transports the profile lists."""
+    if env.get(RANGE_VARIABLE) == "LOCALHOST":
+        return {PROFILES_VARIABLE: str(config_file("fastdds_udp_localhost.xml")), RANGE_VARIABLE: "SUBNET"}
+    return {PROFILES_VARIABLE: str(config_file("fastdds_udp_only.xml"))}
 
 
 def rss_mb(pid: int) -> float:
@@ -74,7 +85,7 @@ def ros_environment(domain_id: int | None = None, localhost_only: bool = True) -
     env = dict(os.environ)
     env.setdefault(PROFILES_VARIABLE, str(config_file("fastdds_shm.xml")))
     if localhost_only:
-        env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+        env[RANGE_VARIABLE] = "LOCALHOST"
     if domain_id is not None:
         env["ROS_DOMAIN_ID"] = str(domain_id)
     env["PYTHONUNBUFFERED"] = "1"
@@ -135,10 +146,10 @@ class NodeGroup:
         )
 
     def environment(self, name: str) -> dict[str, str]:
-        """The group's environment, with the UDP-only profile for UDP_ONLY nodes unless the
+        """The group's environment, with a UDP-only profile for UDP_ONLY nodes unless the
         user chose a profile of their own."""
         if name in UDP_ONLY and self.env.get(PROFILES_VARIABLE) == str(config_file("fastdds_shm.xml")):
-            return {**self.env, PROFILES_VARIABLE: str(config_file("fastdds_udp_only.xml"))}
+            return {**self.env, **udp_only_environment(self.env)}
         return self.env
 
     def exited(self) -> dict[str, int]:

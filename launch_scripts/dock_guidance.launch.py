@@ -12,6 +12,8 @@ from launch.actions import DeclareLaunchArgument, SetEnvironmentVariable
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
+from auv_dock_guidance.launcher import udp_only_environment
+
 
 def generate_launch_description():
     config = os.path.join(get_package_share_directory("auv_dock_guidance"), "config")
@@ -19,7 +21,7 @@ def generate_launch_description():
     port = LaunchConfiguration("port")
     source = LaunchConfiguration("source")
     path = LaunchConfiguration("path")
-    udp_only = {"FASTRTPS_DEFAULT_PROFILES_FILE": os.path.join(config, "fastdds_udp_only.xml")}
+    udp_only = udp_only_environment(os.environ)  # off shared memory, also when discovery is localhost-only
     return LaunchDescription([
         DeclareLaunchArgument("port", default_value="/dev/ttyUSB0", description="main controller serial port"),
         DeclareLaunchArgument("source", default_value="device", description="device | video | folder | sim"),

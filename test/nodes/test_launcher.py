@@ -7,6 +7,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -26,13 +27,39 @@ from auv_dock_guidance.launcher import (
 from auv_dock_guidance.resources import config_file
 
 
-def test_only_processes_that_carry_frames_use_shared_memory():
-    group = NodeGroup(["vision_pipeline", "guidance", "serial_bridge"], env=ros_environment())
-    shm, udp = str(config_file("fastdds_shm.xml")), str(config_file("fastdds_udp_only.xml"))
+@pytest.mark.parametrize("localhost_only", [True, False])
+def test_only_processes_that_carry_frames_use_shared_memory(localhost_only):
+    env = ros_environment(localhost_only=localhost_only)
+    group = NodeGroup(["vision_pipeline", "guidance", "serial_bridge"], env=env)
+    shm = str(config_file("fastdds_shm.xml"))
+    udp = str(config_file("fastdds_udp_localhost.xml" if localhost_only else "fastdds_udp_only.xml"))
     assert group.environment("vision_pipeline")[PROFILES_VARIABLE] == shm
     assert group.environment("detector")[PROFILES_VARIABLE] == shm
     assert group.environment("guidance")[PROFILES_VARIABLE] == udp
     assert group.environment("serial_bridge")[PROFILES_VARIABLE] == udp
+
+
+def test_a_udp_only_node_of_a_localhost_only_system_maps_no_shared_memory():
+    """Measured, not assumed: under the discovery range LOCALHOST rmw_fastrtps adds shared memory to
+    the profile's transports, so the running process is checked for Fast DDS segments."""
+    group = NodeGroup(["guidance"], env=ros_environment(private_domain_id())).start()
+    try:
+        pid = group.processes["guidance"].pid
+        end = time.monotonic() + 60.0
+
+        def sockets() -> int:
+            fds = Path(f"/proc/{pid}/fd")
+            return sum(os.readlink(fd).startswith("socket:") for fd in fds.iterdir())
+
+        while sockets() < 3:
+            assert time.monotonic() < end and group.processes["guidance"].poll() is None, "guidance did not start"
+            time.sleep(0.2)
+        time.sleep(1.0)  # transports are set up with the participant's sockets; give it a moment
+        with open(f"/proc/{pid}/maps") as maps:
+            shared = {line.split()[-1] for line in maps if "/dev/shm/fastrtps" in line}
+    finally:
+        group.stop()
+    assert not shared
 
 
 def test_frame_work_is_niced_below_guidance_and_the_bridge():
