@@ -49,10 +49,11 @@ class ControllerProcess:
 
     def start(self) -> ControllerProcess:
         parent, child = self._context.Pipe()
-        self._process = self._context.Process(
+        process = self._context.Process(
             target=_serve, args=(child, self._pose, self._start_pose, self._seed, self._link),
             name="main-controller-sim", daemon=True)
-        self._process.start()
+        process.start()  # if this raises, there is no child for stop() to end: its error is the one to see
+        self._process = process
         child.close()
         self._conn = parent
         if not parent.poll(_START_TIMEOUT_S):

@@ -65,3 +65,15 @@ def test_its_own_link_folder_goes_with_it_even_when_it_never_started():
     assert folder.is_dir()
     controller.stop()
     assert not folder.exists()
+
+
+def test_a_child_that_cannot_be_spawned_leaves_its_own_error_and_stop_harmless(tmp_path: Path, monkeypatch):
+    controller = ControllerProcess(VehiclePose(0.0, 0.0, 0.0), seed=0, link=tmp_path / "main_controller")
+
+    def refuse(self: object) -> None:
+        raise RuntimeError("cannot spawn here")
+
+    monkeypatch.setattr(controller._context.Process, "start", refuse)
+    with pytest.raises(RuntimeError, match="cannot spawn here"):
+        controller.start()
+    controller.stop()  # the caller's cleanup: nothing to end, no second error
