@@ -40,7 +40,7 @@ import numpy as np
 
 from auv_dock_guidance.cli.common import domain_id, positive_float, print_json, rounded
 from auv_dock_guidance.cli.progress import Progress
-from auv_dock_guidance.control.guidance import CAMERA_SILENT, GuidanceConfig
+from auv_dock_guidance.control.guidance import CAMERA_SILENT, GuidanceConfig, State
 from auv_dock_guidance.launcher import StopRequested, announce, private_domain_id, registered, rss_mb, stop_on_signals
 from auv_dock_guidance.sim.world import PoolWorld, VehiclePose
 
@@ -55,6 +55,7 @@ CAMERA_TIMEOUT_S = GuidanceConfig.camera_timeout_s
 CAMERA_DEADLINE_S = CAMERA_TIMEOUT_S + 0.6  # guidance's camera timeout, as above
 GAP_SLACK_S = 0.2  # the soak and guidance time the same frames, each on its own schedule
 RECOVERY_S = 30.0
+TRACKING = {State.TRACK, State.TERMINAL, State.RETRY, State.DOCKED}  # states with the dock tracked
 
 
 @dataclass(frozen=True)
@@ -297,11 +298,13 @@ def _recovered(system: SimulatedSystem, since_fault: set[str]) -> bool:
 
     Any state guidance reported since the fault counts, not the newest one alone: on a busy
     machine a recovery close to the dock passes through TRACK into TERMINAL within one spin.
+    RETRY counts too: only a confirmed marker leads there, and a restarted guidance can pass
+    from TRACK to RETRY (its first entry check) before the soak has matched its publisher.
     """
     since_fault.clear()  # a killed guidance's last word does not count
     deadline = time.monotonic() + RECOVERY_S
     while time.monotonic() < deadline:
         system.spin(0.2)
-        if since_fault & {"TRACK", "TERMINAL", "DOCKED"} and not system.group.exited():
+        if since_fault & TRACKING and not system.group.exited():
             return True
     return False

@@ -1,5 +1,6 @@
 import json
 
+import auv_dock_guidance.cli.soak as soak
 from auv_dock_guidance.cli.main import main
 from auv_dock_guidance.cli.soak import FAULTS, judge_abort
 
@@ -34,3 +35,26 @@ def test_an_abort_while_frames_flowed_is_a_wrong_reaction():
     other = judge_abort("line_noise", 6.1, "TRACK -> ABORT: telemetry from the main controller is stale or invalid",
                         [t for t in FRAMES_30HZ if not 5.0 < t < 6.3])
     assert other.camera_gap is None and other.wrong.startswith("line_noise: TRACK -> ABORT: telemetry")
+
+
+class _StatesAfterFault:
+    """Stands in for the simulated system: each spin delivers the next state guidance publishes."""
+
+    def __init__(self, states: list[str], seen: set[str]) -> None:
+        self.states, self.seen = list(states), seen
+        self.group = self
+
+    def spin(self, seconds: float) -> None:
+        if self.states:
+            self.seen.add(self.states.pop(0))
+
+    def exited(self) -> dict[str, int]:
+        return {}
+
+
+def test_a_restarted_guidance_already_in_retry_has_recovered_but_one_still_searching_has_not(monkeypatch):
+    monkeypatch.setattr(soak, "RECOVERY_S", 0.5)
+    seen = {"TRACK"}  # the killed guidance's last word: cleared, it does not count
+    assert soak._recovered(_StatesAfterFault(["SEARCH", "RETRY"], seen), seen)  # TRACK came and went unseen
+    seen = {"TRACK"}
+    assert not soak._recovered(_StatesAfterFault(["SEARCH", "SEARCH"], seen), seen)
