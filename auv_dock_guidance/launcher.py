@@ -46,7 +46,7 @@ NODES_OF = {"vision_pipeline": ("camera_ingest", "detector")}  # parameter secti
 VISION_COMBINED = ["vision_pipeline", "guidance", "serial_bridge"]
 VISION_SEPARATE = ["camera_ingest", "detector", "guidance", "serial_bridge"]
 # Processes that never carry frames stay off shared memory: a killed process can leave a
-# Fast DDS port lock behind that leaves its restart deaf, or holds a publish to it for 1-3 s
+# Fast DDS port lock behind that leaves its restart deaf, or holds a publish to it for 2-3 s
 # (see config/fastdds_udp_only.xml and config/fastdds_udp_localhost.xml).
 UDP_ONLY = {"guidance", "serial_bridge"}
 PROFILES_VARIABLE = "FASTRTPS_DEFAULT_PROFILES_FILE"
