@@ -177,6 +177,10 @@ def _print_summary(r: dict[str, Any]) -> None:
           f"p95 {_num(r['yaw_error_deg_p95'], ' deg', digits=3)}")
     print(f"pitch error            p50 {_num(r['pitch_error_deg_p50'], ' deg', digits=3)}, "
           f"p95 {_num(r['pitch_error_deg_p95'], ' deg', digits=3)}")
+    print(f"error in dock/pose's   across p50 {_num(r['pose_error_sigmas_across_p50'], '')}, "
+          f"p95 {_num(r['pose_error_sigmas_across_p95'], '')}; range p50 {_num(r['pose_error_sigmas_range_p50'], '')}, "
+          f"p95 {_num(r['pose_error_sigmas_range_p95'], '')}")
+    print("  standard deviations  (a covariance that neither flatters nor hides the detector: p50 0.67, p95 1.96)")
 
 
 def run_edges(args: argparse.Namespace) -> int:

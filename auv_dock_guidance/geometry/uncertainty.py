@@ -22,7 +22,8 @@ sigma_z = z * sigma_r / r_n = z^2 sigma_r / R: the range's standard deviation gr
 for a fixed outline error in pixels (its variance as z^2 / r_n^2, with r_n = R / z), and
 faster still far away, where fewer outline pixels share the error.
 Then (x, y, z) = (x_n z, y_n z, z) carries the covariance through its Jacobian. Terms
-added on top: a pixel-noise floor, the two-fold ambiguity of a tilted ring when the fit
+added on top: a pixel-noise floor, floors for the centre's lean and the radius's scale that
+the scatter does not show (``MeasurementNoise``), the two-fold ambiguity of a tilted ring when the fit
 could not tell which pose is true (the midpoint was used: half the distance to either
 solution), the short arc of a ring cut by the frame (a circle through part of its outline
 is loose along the arc's bisector), and an approximate camera (a guessed focal length
@@ -54,9 +55,15 @@ class MeasurementNoise:
     # 3-14 m, the fit's own error estimate (one independent outline sample per 8 px) overstates
     # the radius's error about twice, while the centre's extra error comes from the tilt.
     radius_share: float = 0.25
-    # Range error the outline's scatter does not show (share of the range): the halo and the
-    # threshold bias the radius by a little that changes with the view (0.05 % at 3 m on renders).
-    range_share_floor: float = 0.0005
+    # What the outline's scatter does not show, measured on the evaluation populations (real-world
+    # effects: halo, bloom, glare, lamps, LED rings round a lit funnel), where the scatter alone
+    # understated the errors 2-3x at the median and 7-17x at the 95th percentile: the halo, the
+    # threshold and an LED lost to a bloom lean the centre by a share of the ring's image radius
+    # (each axis; 68 % of whole rings within 3-7 %, of LED rings 3 %)...
+    centre_share_floor: float = 0.03
+    # ...and scale the radius, so the range, by a share (68 % of whole rings within 0.8-1 %; clean
+    # renders of a strip: 0.05 % at 3 m). Both grow for a ring the frame cuts, as the scatter's do.
+    range_share_floor: float = 0.008
     unknown_fit_px: float = 1.0  # centre error assumed when the fit reports none (px)
     approximate_focal_share: float = 0.05  # standard error of a guessed focal length (share)
     approximate_principal_share: float = 0.02  # standard error of a guessed principal point (share of width)
@@ -180,10 +187,10 @@ def _position_covariance(
         else noise.unknown_fit_px / observation.focal_px
     point_variance = 0.5 * (fit_sigma**2 + floor**2)  # one outline point's variance / samples
     center_factor, radius_factor = arc_factors(observation.visible_arc_deg)
-    center_variance = point_variance * center_factor
+    center_variance = (point_variance + 0.5 * (noise.centre_share_floor * radius_n) ** 2) * center_factor
     radius_variance = point_variance * radius_factor
     range_variance = (z / radius_n) ** 2 * radius_variance * (2.0 * noise.radius_share) \
-        + (noise.range_share_floor * z) ** 2
+        + (noise.range_share_floor * z) ** 2 * radius_factor
     normalized = np.diag([center_variance, center_variance, range_variance])
     jacobian = np.array([[z, 0.0, x_n], [0.0, z, y_n], [0.0, 0.0, 1.0]])
     cov = jacobian @ normalized @ jacobian.T

@@ -40,6 +40,20 @@ def _rotate(q: tuple[float, float, float, float], v: np.ndarray) -> np.ndarray:
     return v + 2.0 * np.cross(u, np.cross(u, v) + w * v)
 
 
+def test_what_the_scatter_does_not_show_keeps_a_floor_and_grows_on_a_cut_arc():
+    """A perfect outline still leans with the halo and the threshold: the centre's deviation is at least
+    its floor (a share of the ring's image radius, each axis), the range's at least its share of the range."""
+    noise = MeasurementNoise()
+    for z in (2.0, 10.0):
+        pose = dock_pose(_observation(z, center_m=(0.0, 0.0, z), fit_sigma=0.0))
+        across = noise.centre_share_floor * R  # the image radius's share, carried out to the range
+        assert math.sqrt(pose.matrix()[0, 0]) == pytest.approx(across, rel=0.05)
+        assert pose.range_sigma_m == pytest.approx(noise.range_share_floor * z, rel=0.05)
+    whole, cut = (dock_pose(_observation(6.0, fit_sigma=0.0, visible_arc_deg=arc)) for arc in (360.0, 200.0))
+    assert cut.range_sigma_m > 1.5 * whole.range_sigma_m
+    assert cut.matrix()[0, 0] > whole.matrix()[0, 0]
+
+
 def test_covariance_is_positive_definite_and_grows_with_range():
     sigmas = []
     for z in (2.0, 4.0, 8.0, 16.0):
@@ -120,11 +134,13 @@ def test_a_tilt_read_from_a_pose_behind_the_camera_has_no_certainty_rather_than_
     assert math.isfinite(tilt_sigma_rad(_observation(5.0), (0.0, 0.0, -1.0)))
 
 
-def test_reported_deviations_match_the_detector_on_rendered_frames():
-    """Monte Carlo of the detector on small renders: the continuous strip seen nearly along
+def test_deviations_from_the_outlines_scatter_match_the_detector_on_clean_renders():
+    """Monte Carlo of the detector on small clean renders: the continuous strip seen nearly along
     the dock's axis (up to 10 deg of tilt, up to 5 % of the range to the side), sensor noise
-    drawn per frame. The reported deviations of range and bearing (yaw and pitch pooled)
-    against the spread of the errors (their standard deviation), within a factor 2."""
+    drawn per frame. The deviations of range and bearing (yaw and pitch pooled) propagated from
+    the outline's scatter, without the floors for what clean renders do not show, against the
+    spread of the errors (their standard deviation), within a factor 2."""
+    scatter_only = MeasurementNoise(centre_share_floor=0.0, range_share_floor=0.0005)
     camera = paper_camera().scaled(0.5)
     rng = np.random.default_rng(2)
     ratios = {}
@@ -140,7 +156,7 @@ def test_reported_deviations_match_the_detector_on_rendered_frames():
             detection = Detector(camera).detect(image)
             observation = observation_of(detection, R, camera.focal_px, camera.width)
             assert observation is not None and detection.pose is not None, f"no ring at {z:.2f} m"
-            pose = dock_pose(observation)
+            pose = dock_pose(observation, scatter_only)
             range_errors.append(detection.pose.range_m - z)
             bearing_errors += [detection.pose.yaw_rad - math.atan2(x, z), detection.pose.pitch_rad - math.atan2(y, z)]
             range_sigmas.append(pose.range_sigma_m)
