@@ -496,6 +496,7 @@ class _Refitter:
                 for i, (start, fit) in enumerate(zip(current, fitted, strict=True))]
 
     def _least_occupancy(self, lights: int) -> float:
+        """Share of the LEDs expected in view a ring must hold: less of a count the user gave, once enough are found."""
         return MIN_OCCUPANCY_TOLD if self.count_known and lights >= TOLD_RING_LEDS else MIN_OCCUPANCY
 
     def _match(self, models: list[tuple[tuple[bytes, bytes], np.ndarray]]) -> None:
