@@ -1,6 +1,7 @@
 """The launcher: which Fast DDS transports each node process gets, the registry of running
 systems, and stopping on SIGTERM and SIGHUP as on Ctrl-C."""
 
+import contextlib
 import json
 import os
 import signal
@@ -48,8 +49,11 @@ def test_a_udp_only_node_of_a_localhost_only_system_maps_no_shared_memory():
         end = time.monotonic() + 60.0
 
         def sockets() -> int:
-            fds = Path(f"/proc/{pid}/fd")
-            return sum(os.readlink(fd).startswith("socket:") for fd in fds.iterdir())
+            count = 0
+            for fd in Path(f"/proc/{pid}/fd").iterdir():
+                with contextlib.suppress(FileNotFoundError):  # closed between the listing and the look
+                    count += os.readlink(fd).startswith("socket:")
+            return count
 
         while sockets() < 3:
             assert time.monotonic() < end and group.processes["guidance"].poll() is None, "guidance did not start"
