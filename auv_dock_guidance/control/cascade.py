@@ -35,6 +35,7 @@ class Target:
     offset_y_m: float  # down
     axis_optical: tuple[float, float, float] | None = None  # the dock's axis (ring normal, towards the camera)
     axis_sigma_rad: float | None = None  # the detector's standard deviation of that axis's tilt; None: not reported
+    position_covariance: tuple[float, ...] | None = None  # m^2, 3x3 row-major, axes as offset_x, offset_y, range
 
     @property
     def bearing_yaw_rad(self) -> float:

@@ -125,6 +125,9 @@ class DockTracker:
         dock = dock_from_camera(target, attitude)
         z = self._position_from(dock, attitude)
         r = self._measurement_noise(dock)
+        if target.position_covariance is not None:
+            turn = level_from_body(attitude) @ _BODY_FROM_OPTICAL
+            r = r + (turn @ np.array(target.position_covariance).reshape(3, 3) @ turn.T)[:2, :2]
         if self._x is None or not c.estimate_current:
             if may_restart:
                 self._start(z, r, target.stamp_s)

@@ -32,6 +32,8 @@ from auv_dock_guidance.geometry.rotations import (
 
 # Columns: the optical frame's axes (x right, y down, z forward) in the camera link (x forward, y left, z up).
 LINK_FROM_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+# Rows: the vehicle's right, down and forward in base_link (x forward, y left, z up).
+_VEHICLE_FROM_BASE = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])
 
 
 @dataclass(frozen=True)
@@ -66,6 +68,11 @@ class CameraMounting:
 
     def optical_to_base(self, point_optical_m: np.ndarray) -> np.ndarray:
         return self.base_from_optical() @ np.asarray(point_optical_m, dtype=float) + self.translation_m
+
+    def vehicle_from_optical(self) -> np.ndarray:
+        """Rotation taking optical-frame vectors into the vehicle's own optical-like axes (right, down,
+        forward): those of guidance's Target, whatever way the camera is mounted."""
+        return _VEHICLE_FROM_BASE @ self.base_from_optical()
 
     def target_about_vehicle(self, point_optical_m: np.ndarray) -> tuple[float, float, float]:
         """(forward, right, down) of a point seen by the camera, from the point of the vehicle's

@@ -3,7 +3,8 @@
 The dock comes from the camera; ``camera_mounting.*`` (base_link -> camera optical frame)
 re-expresses it about the vehicle's centre line before it is steered on. dock/pose gives
 the dock's axis too (its orientation's x axis, where the tilt-aware fit resolved it: a
-small tilt variance), which ``axis_alignment`` lines up with; while dock/pose comes,
+small tilt variance), which ``axis_alignment`` lines up with, and the position's covariance, which
+the tracker adds to its own measurement noise; while dock/pose comes,
 dock/target (the same position) is not acted on twice.
 
 Subscribes  dock/pose (geometry_msgs/PoseWithCovarianceStamped), dock/target (geometry_msgs/PointStamped),
@@ -224,12 +225,15 @@ class GuidanceNode(Node):
         self._pose_seen_s = self.get_clock().now().nanoseconds * 1e-9
         p = msg.pose.pose.position
         forward, right, down = self.mounting.target_about_vehicle(np.array([p.x, p.y, p.z]))
+        turn = self.mounting.vehicle_from_optical()  # about the vehicle as the position is
         normal, sigma = dock_axis_optical(msg)
         axis = None
-        if normal is not None:  # about the vehicle as the position is: optical-like (right, down, forward)
-            base = self.mounting.base_from_optical() @ normal
-            axis = (float(-base[1]), float(-base[2]), float(base[0]))
-        self._step(Target(stamp_seconds(msg.header.stamp), forward, right, down, axis, sigma))
+        if normal is not None:
+            x, y, z = turn @ normal
+            axis = (float(x), float(y), float(z))
+        optical = position_covariance_optical(msg)
+        covariance = None if optical is None else tuple(float(v) for v in (turn @ optical @ turn.T).ravel())
+        self._step(Target(stamp_seconds(msg.header.stamp), forward, right, down, axis, sigma, covariance))
 
     def _on_timer(self) -> None:
         """A control tick; the first after a hiccup of this process (three periods without a tick) is
@@ -328,6 +332,16 @@ def dock_axis_optical(msg: PoseWithCovarianceStamped) -> tuple[np.ndarray | None
     if not (math.isfinite(tilt_variance) and tilt_variance < UNKNOWN_VARIANCE):
         return None, None
     return axis, math.sqrt(max(tilt_variance, 0.0))
+
+
+def position_covariance_optical(msg: PoseWithCovarianceStamped) -> np.ndarray | None:
+    """dock/pose's position covariance (optical frame), if it is a usable one: the tracker adds it to
+    its own noise, so a detection the detector doubts moves the track less."""
+    covariance = np.asarray(msg.pose.covariance, dtype=float).reshape(6, 6)[:3, :3]
+    if not np.all(np.isfinite(covariance)) or np.any(np.diag(covariance) < 0.0) \
+            or np.any(np.diag(covariance) >= UNKNOWN_VARIANCE):
+        return None
+    return covariance
 
 
 def main(args: list[str] | None = None) -> int:

@@ -26,7 +26,7 @@ from auv_dock_guidance.control.mixer import Mixer
 from auv_dock_guidance.control.pid import wrap_angle
 from auv_dock_guidance.geometry.camera import CameraModel, paper_camera
 from auv_dock_guidance.geometry.pose import circles_from_ellipse
-from auv_dock_guidance.geometry.uncertainty import observation_of, tilt_sigma_rad
+from auv_dock_guidance.geometry.uncertainty import dock_pose, observation_of, tilt_sigma_rad
 from auv_dock_guidance.sim.scenarios import dock_look
 from auv_dock_guidance.sim.scene import GroundTruth, SceneSpec, render
 from auv_dock_guidance.sim.vehicle import AuvDynamics
@@ -254,7 +254,8 @@ def run_episode(config: EpisodeConfig, seed: int, on_frame: FrameHook | None = N
             pose = detection.pose
             if detection.found and pose is not None:
                 axis, axis_sigma = ring_axis(detection, world, camera)
-                target = Target(t, pose.range_m, pose.offset_x_m, pose.offset_y_m, axis, axis_sigma)
+                target = Target(t, pose.range_m, pose.offset_x_m, pose.offset_y_m, axis, axis_sigma,
+                                position_covariance(detection, world, camera))
                 if truth.center_px is not None:
                     max_range = max(max_range, truth.position_m[2] if truth.position_m else 0.0)
                 if _on_reflection(detection.u, detection.v, truth):
@@ -316,6 +317,16 @@ def ring_axis(detection: Detection, world: PoolWorld, camera: CameraModel
     if normal is None or observation is None or observation.visible_arc_deg < 360.0 or observation.tilt_disputed:
         return None, None  # a ring cut by the frame or of the wrong LED count: dock/pose reports no axis either
     return normal, tilt_sigma_rad(observation, normal)
+
+
+def position_covariance(detection: Detection, world: PoolWorld, camera: CameraModel) -> tuple[float, ...] | None:
+    observation = observation_of(detection, world.entrance_radius_m, camera.focal_px, camera.width)
+    if observation is None:
+        return None
+    try:
+        return tuple(float(v) for v in dock_pose(observation).matrix()[:3, :3].ravel())
+    except ValueError:
+        return None
 
 
 def _describe_start(result: EpisodeResult, world: PoolWorld, vehicle: AuvDynamics) -> None:

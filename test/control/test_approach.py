@@ -90,6 +90,32 @@ def test_the_drift_against_the_vehicles_own_motion_is_the_current():
     assert np.allclose(fix.position_m, auv.position, atol=0.1)
 
 
+def _shift_after_a_stray_sighting(covariance):
+    """How far sideways one sighting 0.15 m off to the right moves a settled track 10 m out, the sighting
+    carrying ``covariance`` (right, down, forward axes) as dock/pose reports it."""
+    tracker = DockTracker()
+    for i in range(20):
+        tracker.predict(0.1, (0.0, 0.0))
+        tracker.update(sighting((-10.0, 0.0), 0.0, 0.1 * i), Attitude(0.1 * i, 0.0, 0.0, 0.0))
+    before = tracker.fix().position_m
+    tracker.predict(0.1, (0.0, 0.0))
+    true = sighting((-10.0, 0.0), 0.0, 2.0)
+    stray = replace(true, offset_x_m=true.offset_x_m + 0.15, position_covariance=covariance)
+    tracker.update(stray, Attitude(2.0, 0.0, 0.0, 0.0))
+    return abs(tracker.fix().position_m[1] - before[1])
+
+
+def test_a_sighting_the_detector_doubts_moves_the_track_less():
+    """dock/pose's covariance adds to the tracker's own noise, turned from the camera's axes into the
+    level frame: doubt across the line damps a sideways jump, doubt along the range does not."""
+    trusted = _shift_after_a_stray_sighting(None)
+    doubted_across = _shift_after_a_stray_sighting((0.25, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    doubted_in_range = _shift_after_a_stray_sighting((0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.25))
+    assert trusted > 0.02
+    assert doubted_across < 0.3 * trusted
+    assert doubted_in_range == pytest.approx(trusted, rel=0.1)
+
+
 class SlidingAuv(KinematicAuv):
     """Also slides outwards in turns as a hull does: sway builds towards -1.3 s x speed x turn rate in 1.6 s
     (guidance's model of it is 1.1 s and 2 s: a vehicle identified only roughly)."""

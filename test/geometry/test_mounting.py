@@ -35,6 +35,17 @@ def test_a_camera_looking_down_sees_the_dock_below_the_vehicle_axis():
     assert point - mounting.translation_m == pytest.approx([math.cos(0.1745329), 0.0, -math.sin(0.1745329)])
 
 
+def test_directions_turn_into_the_vehicles_axes_as_points_do():
+    """The dock's axis and its position covariance are turned with the rotation that turns its position."""
+    mounting = CameraMounting(x_m=0.5, y_m=-0.3, z_m=-0.1, roll_rad=0.1, pitch_rad=0.2, yaw_rad=-0.3)
+    turn = mounting.vehicle_from_optical()
+    point = np.array([0.4, -0.2, 6.0])
+    origin = np.array(mounting.target_about_vehicle(np.zeros(3)))
+    forward, right, down = np.array(mounting.target_about_vehicle(point)) - origin
+    assert turn @ point == pytest.approx([right, down, forward])
+    assert CameraMounting().vehicle_from_optical() == pytest.approx(np.eye(3))
+
+
 def test_the_static_transform_is_the_mounting():
     mounting = CameraMounting(x_m=0.7, y_m=0.1, z_m=-0.2, roll_rad=0.05, pitch_rad=0.2, yaw_rad=-0.3)
     translation, rpy = mounting.transform_xyz_rpy()

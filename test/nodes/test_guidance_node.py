@@ -1,17 +1,21 @@
 """The guidance node in time: a stall of its own process is not a failure of the telemetry."""
 
+import math
 import threading
 import time
 
-from geometry_msgs.msg import PointStamped
+import numpy as np
+import pytest
+from geometry_msgs.msg import PointStamped, PoseWithCovarianceStamped
 from node_harness import beside, spin_until  # test/nodes is on the path (pytest's prepend import)
 from sensor_msgs.msg import Imu
 from std_msgs.msg import Bool
 
 from auv_dock_guidance.control.cascade import Attitude
 from auv_dock_guidance.control.guidance import State
+from auv_dock_guidance.geometry.uncertainty import UNKNOWN_VARIANCE
 from auv_dock_guidance.nodes.conversions import attitude_to_imu, seconds_stamp
-from auv_dock_guidance.nodes.guidance import GuidanceNode
+from auv_dock_guidance.nodes.guidance import GuidanceNode, position_covariance_optical
 
 
 def test_a_stall_of_the_guidance_process_does_not_abort_it_while_telemetry_keeps_coming(ros):
@@ -56,3 +60,17 @@ def test_a_stall_of_the_guidance_process_does_not_abort_it_while_telemetry_keeps
         publisher.join()
         node.destroy_node()
         harness.destroy_node()
+
+
+def test_dock_pose_position_covariance_is_taken_only_when_it_says_something():
+    msg = PoseWithCovarianceStamped()
+    block = np.diag([0.01, 0.02, 0.3])
+    covariance = np.zeros((6, 6))
+    covariance[:3, :3] = block
+    covariance[3:, 3:] = UNKNOWN_VARIANCE * np.eye(3)  # orientation unobserved: the position still counts
+    msg.pose.covariance = covariance.ravel().tolist()
+    assert position_covariance_optical(msg) == pytest.approx(block)
+    for unusable in (UNKNOWN_VARIANCE, math.nan):
+        covariance[2, 2] = unusable
+        msg.pose.covariance = covariance.ravel().tolist()
+        assert position_covariance_optical(msg) is None
