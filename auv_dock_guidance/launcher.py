@@ -32,6 +32,7 @@ from pathlib import Path
 from typing import IO, Any, TextIO
 
 from auv_dock_guidance.resources import config_file
+from auv_dock_guidance.shared_memory import remove_zombie_segments
 
 NODE_MODULES = {
     "camera_ingest": "auv_dock_guidance.nodes.camera_ingest",
@@ -123,6 +124,8 @@ class NodeGroup:
         for name in self.nodes:
             if name not in NODE_MODULES:
                 raise ValueError(f"unknown node {name!r}; known: {', '.join(NODE_MODULES)}")
+        remove_zombie_segments()  # what killed nodes of earlier runs left in RAM
+        for name in self.nodes:
             self._spawn(name, "wb")
         return self
 
@@ -131,6 +134,7 @@ class NodeGroup:
         process = self.processes.get(name)
         if process is not None and process.poll() is None:
             raise RuntimeError(f"{name} is still running")
+        remove_zombie_segments()  # the dead node's
         self._spawn(name, "ab")
 
     def _spawn(self, name: str, log_mode: str) -> None:
