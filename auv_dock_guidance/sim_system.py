@@ -64,9 +64,13 @@ class SimulatedSystem:
         while time.monotonic() < end:
             rclpy.spin_once(self.node, timeout_sec=min(0.05, max(0.0, end - time.monotonic())))
 
-    def reposition(self, pose: VehiclePose) -> None:
-        """Put the vehicle at a new start, at rest, and re-arm guidance."""
+    def reposition(self, pose: VehiclePose, settle_s: float = 0.5) -> None:
+        """Put the vehicle at a new start, at rest, and re-arm guidance once the detections of frames
+        taken before the jump have passed (``settle_s``). Re-armed at once, guidance confirmed the
+        marker from those close-in detections, and its tracker then refused the far ones as farther
+        than the vehicle could have moved, until the marker counted as lost (3 of 86 soaks)."""
         self.controller.reposition(pose)
+        self.spin(settle_s)
         if self._reset_client.wait_for_service(timeout_sec=2.0):
             future = self._reset_client.call_async(Trigger.Request())
             end = time.monotonic() + 2.0
