@@ -26,7 +26,7 @@ from auv_dock_guidance.control.mixer import Mixer
 from auv_dock_guidance.control.pid import wrap_angle
 from auv_dock_guidance.geometry.camera import CameraModel, paper_camera
 from auv_dock_guidance.geometry.pose import circles_from_ellipse
-from auv_dock_guidance.geometry.uncertainty import dock_pose, observation_of, tilt_sigma_rad
+from auv_dock_guidance.geometry.uncertainty import RingObservation, dock_pose, observation_of, tilt_sigma_rad
 from auv_dock_guidance.sim.scenarios import dock_look
 from auv_dock_guidance.sim.scene import GroundTruth, SceneSpec, render
 from auv_dock_guidance.sim.vehicle import AuvDynamics
@@ -253,9 +253,10 @@ def run_episode(config: EpisodeConfig, seed: int, on_frame: FrameHook | None = N
             guidance.frame_processed(t)
             pose = detection.pose
             if detection.found and pose is not None:
-                axis, axis_sigma = ring_axis(detection, world, camera)
+                observation = observation_of(detection, world.entrance_radius_m, camera.focal_px, camera.width)
+                axis, axis_sigma = ring_axis(detection, observation, world.entrance_radius_m)
                 target = Target(t, pose.range_m, pose.offset_x_m, pose.offset_y_m, axis, axis_sigma,
-                                position_covariance(detection, world, camera))
+                                position_covariance(observation))
                 if truth.center_px is not None:
                     max_range = max(max_range, truth.position_m[2] if truth.position_m else 0.0)
                 if _on_reflection(detection.u, detection.v, truth):
@@ -304,23 +305,23 @@ def run_episode(config: EpisodeConfig, seed: int, on_frame: FrameHook | None = N
     return result
 
 
-def ring_axis(detection: Detection, world: PoolWorld, camera: CameraModel
+def ring_axis(detection: Detection, observation: RingObservation | None, entrance_radius_m: float
               ) -> tuple[tuple[float, float, float] | None, float | None]:
     """The ring's axis as the fit resolved it, or else one of the two circles its ellipse fits (guidance's
     axis estimate takes every observation as a pair of mirror images and tells them apart as the view
-    moves), with the standard deviation of its tilt from the fit's scatter."""
+    moves), with the standard deviation of its tilt from the fit's scatter (``observation``, the detection's)."""
     normal = detection.ring_normal
     if normal is None and detection.ellipse is not None:
-        candidates = circles_from_ellipse(detection.ellipse, world.entrance_radius_m)
+        candidates = circles_from_ellipse(detection.ellipse, entrance_radius_m)
         normal = tuple(float(v) for v in candidates[0].normal) if candidates else None  # type: ignore[assignment]
-    observation = observation_of(detection, world.entrance_radius_m, camera.focal_px, camera.width)
     if normal is None or observation is None or observation.visible_arc_deg < 360.0 or observation.tilt_disputed:
         return None, None  # a ring cut by the frame or of the wrong LED count: dock/pose reports no axis either
     return normal, tilt_sigma_rad(observation, normal)
 
 
-def position_covariance(detection: Detection, world: PoolWorld, camera: CameraModel) -> tuple[float, ...] | None:
-    observation = observation_of(detection, world.entrance_radius_m, camera.focal_px, camera.width)
+def position_covariance(observation: RingObservation | None) -> tuple[float, ...] | None:
+    """The position covariance dock/pose would publish with this observation (the tracker weighs the
+    detection by it), or None where dock/pose publishes nothing."""
     if observation is None:
         return None
     try:
