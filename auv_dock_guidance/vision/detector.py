@@ -161,7 +161,8 @@ class Detector:
         if self.config.led_count == 0:
             return []
         self._view = FrameView.of(copy)
-        return self._large_enough(find_led_rings(image, copy, self.camera, self.config, self._view))
+        return self._large_enough(find_led_rings(image, copy, self.camera, self.config, self._view,
+                                                 likely_count=self.led_counts.count))
 
     def _led_rings_in(self, image: np.ndarray, window: Window) -> list[LedRingCandidate]:
         """Rings of evenly spaced LEDs in a tracking window: the same evidence as in the whole
@@ -170,7 +171,8 @@ class Detector:
             return []
         box, _ = window
         copy = search_copy(image, self.config, self._lens_scale, box)
-        return self._large_enough(find_led_rings(image, copy, self.camera, self.config, self._view, box[:2]))
+        return self._large_enough(find_led_rings(image, copy, self.camera, self.config, self._view, box[:2],
+                                                 self.led_counts.count))
 
     def _large_enough(self, rings: list[LedRingCandidate]) -> list[LedRingCandidate]:
         return [r for r in rings if r.shape.radius_px >= max(self.config.selection.min_radius_px, self._min_radius_px)]

@@ -65,9 +65,11 @@ class FrameView:
 
 
 def find_led_rings(image: np.ndarray, copy: tuple[np.ndarray, float], camera: CameraModel | None,
-                   config: DetectorConfig, view: FrameView, origin: tuple[int, int] = (0, 0)) -> list[LedRingCandidate]:
+                   config: DetectorConfig, view: FrameView, origin: tuple[int, int] = (0, 0),
+                   likely_count: int | None = None) -> list[LedRingCandidate]:
     """Rings of evenly spaced lights in the frame, or in the part of it whose search copy is
-    ``copy`` and whose top left corner is ``origin`` (a tracking window)."""
+    ``copy`` and whose top left corner is ``origin`` (a tracking window); ``likely_count``:
+    the count the dock has shown when the config gives none (`assemble_rings`)."""
     small, scale = copy
     gray = mean_channel(small)  # all the lights are looked for on: made once, not once per look
     lit = lit_region(gray)
@@ -76,10 +78,11 @@ def find_led_rings(image: np.ndarray, copy: tuple[np.ndarray, float], camera: Ca
         return rings if lit is None else [r for r in rings if not _on_lit_face(r, lit, scale, origin, camera)]
 
     rings = round_the_lit(_rings_of(image, find_leds(gray, scale, config.search_background_px, origin=origin),
-                                    camera, config, view))
+                                    camera, config, view, likely_count))
     if lit is not None and not rings:  # LEDs merged with a funnel brighter than the sensor takes: bumps on its outline
         rings = round_the_lit(_rings_of(
-            image, find_leds(gray, scale, config.search_background_px, origin=origin, lit=lit), camera, config, view))
+            image, find_leds(gray, scale, config.search_background_px, origin=origin, lit=lit), camera, config, view,
+            likely_count))
     return rings
 
 
@@ -107,7 +110,7 @@ def _plane_to_pixels(plane: np.ndarray, camera: CameraModel | None) -> np.ndarra
 
 
 def _rings_of(image: np.ndarray, found: list[LedBlob], camera: CameraModel | None, config: DetectorConfig,
-              view: FrameView) -> list[LedRingCandidate]:
+              view: FrameView, likely_count: int | None) -> list[LedRingCandidate]:
     blobs = [refined(image, b, view.water_bgr) for b in found]
     if config.led_bgr is not None:
         blobs = [b for b in blobs if glow_matches(b.glow_bgr, config.led_bgr)]
@@ -138,7 +141,7 @@ def _rings_of(image: np.ndarray, found: list[LedBlob], camera: CameraModel | Non
     passes = [isolated] if len(isolated) == len(blobs) else [isolated, np.arange(len(blobs))]
     for part in (p for p in passes if len(p) >= 3):
         chosen = [blobs[i] for i in part]
-        rings = assemble_rings(xy[part] * focal, chosen, in_view, config.led_count)
+        rings = assemble_rings(xy[part] * focal, chosen, in_view, config.led_count, likely_count=likely_count)
         if rings:
             return [_candidate(ring, chosen, pixels[part], xy[part]) for ring in rings]
     return []

@@ -16,6 +16,8 @@ corner of the funnel beside blue LEDs) adds mostly that surface's white.
 
 With the LED count unknown, each triple's own curvature suggests the step, and the
 counts around it are tried; an unknown count needs more LEDs in view to be believed.
+Once the dock's whole rings have shown its count (the detector's vote), that count and its
+neighbours are tried, and the others only when they make no ring.
 """
 
 from __future__ import annotations
@@ -88,7 +90,7 @@ class LedRing:
 
 
 def assemble_rings(points: np.ndarray, blobs: list[LedBlob], in_view: InView | None,
-                   led_count: int | None, max_rings: int = 3) -> list[LedRing]:
+                   led_count: int | None, max_rings: int = 3, likely_count: int | None = None) -> list[LedRing]:
     """Rings of evenly spaced lights among the blobs, best first, each light in one ring at most.
 
     A ring whose glow is far less coloured than the most coloured ring's is dropped: it is
@@ -97,12 +99,19 @@ def assemble_rings(points: np.ndarray, blobs: list[LedBlob], in_view: InView | N
 
     ``points`` are the blobs' centres (N, 2) on the plane to fit on (undistorted pixels);
     ``in_view(xy)`` tells which predicted positions lie inside the frame (None: all do).
-    ``led_count``: N when the user gave it; None when unknown.
+    ``led_count``: N when the user gave it; None when unknown. ``likely_count``: with it
+    unknown, the count the dock's rings have shown so far: only it and its neighbours are
+    tried while they make rings (a ring of another count is a misreading of the dock or
+    another light), every count once they make none. The thresholds stay those of an unknown count.
     """
     free = np.ones(len(blobs), bool)
     rings: list[LedRing] = []
+    likely = None if led_count else likely_count
     while len(rings) < max_rings:
-        ring = _best_ring(points, blobs, free, in_view, led_count)
+        ring = _best_ring(points, blobs, free, in_view, led_count, likely)
+        if ring is None and likely and not rings:
+            likely = None
+            ring = _best_ring(points, blobs, free, in_view, led_count, likely)
         if ring is None:
             break
         rings.append(ring)
@@ -114,7 +123,7 @@ def assemble_rings(points: np.ndarray, blobs: list[LedBlob], in_view: InView | N
 
 
 def _best_ring(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, in_view: InView | None,
-               led_count: int | None) -> LedRing | None:
+               led_count: int | None, likely_count: int | None = None) -> LedRing | None:
     triples = _triples(points, blobs, free)
     if not len(triples):
         return None
@@ -122,7 +131,10 @@ def _best_ring(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, in_vi
         by_count = {led_count: triples}
     else:
         low, high = _counts_to_try(points, triples)
-        by_count = {n: triples[(low <= n) & (n <= high)] for n in range(int(low.min()), int(high.max()) + 1)}
+        counts = range(int(low.min()), int(high.max()) + 1)
+        if likely_count:  # the vote can settle one off the dock's count (an LED gained or lost in a bloom)
+            counts = range(max(int(low.min()), likely_count - 1), min(int(high.max()), likely_count + 1) + 1)
+        by_count = {n: triples[(low <= n) & (n <= high)] for n in counts}
     # Largest counts first: a ring holds at most one LED per slot, so a count below the best
     # ring's LEDs cannot beat it and is not tried. Of rings that rank alike, the one of the
     # smaller count is kept, as trying the counts upwards would keep it.
