@@ -88,3 +88,21 @@ def test_seven_of_eleven_leds_of_a_given_count_are_a_ring():
     ring = assemble_rings(points, _blobs(points), None, 11)[0]
     assert len(ring.members) == 7 and ring.count == 11
     assert ring.center == pytest.approx((300.0, 250.0), abs=0.5)
+
+
+def test_once_the_dock_has_shown_its_count_rings_of_other_counts_are_not_assembled():
+    """A ring of seven lamps beside the dock's twelve LEDs is a ring while the count is unknown;
+    once the dock's rings have shown twelve, only twelve and its neighbours are tried."""
+    leds = _ring(count=12)
+    lamps = _ring(count=7, center=(800.0, 250.0), a=(100.0, 0.0), b=(0.0, 100.0))
+    points = np.concatenate([leds, lamps])
+    blobs = _blobs(points)
+    assert sorted(r.count for r in assemble_rings(points, blobs, None, None)) == [7, 12]
+    assert [r.count for r in assemble_rings(points, blobs, None, None, likely_count=12)] == [12]
+    assert [r.count for r in assemble_rings(points, blobs, None, None, likely_count=13)] == [12]  # one LED off
+
+
+def test_a_dock_count_that_makes_no_ring_gives_way_to_every_count():
+    points = _ring(count=8)
+    ring = assemble_rings(points, _blobs(points), None, None, likely_count=16)[0]
+    assert ring.count == 8 and len(ring.members) == 8
