@@ -31,6 +31,7 @@ class DetectorConfig:
     tracking: bool = False  # look near the last marker first; search the whole frame when lost
     full_search_every: int = 15  # while tracking, start a search of the whole frame (a slice per frame) this often
     track_window_radii: float = 1.5  # tracking window half-width in ring radii (plus room for motion)
+    all_counts_every: int = 10  # LED count learned: every count is tried (and votes) on one frame in this many
     canny_low: float = 0.04  # hysteresis thresholds as shares of the region's contrast, per px
     canny_high: float = 0.10
     threshold: ThresholdConfig = field(default_factory=ThresholdConfig)
@@ -50,8 +51,9 @@ class DetectorConfig:
             raise ConfigError(f"search_scale {self.search_scale} must be in [0.05, 1]")
         if self.search_background_px < 3 or self.max_candidates < 1 or self.refine_radius_px < 16:
             raise ConfigError("search_background_px >= 3, max_candidates >= 1, refine_radius_px >= 16")
-        if self.full_search_every < 1:
-            raise ConfigError(f"full_search_every {self.full_search_every} must be at least 1")
+        if self.full_search_every < 1 or self.all_counts_every < 1:
+            raise ConfigError(f"full_search_every {self.full_search_every} and all_counts_every "
+                              f"{self.all_counts_every} must be at least 1")
         if not 0.5 <= self.track_window_radii <= 20.0:
             raise ConfigError(f"track_window_radii {self.track_window_radii} must be in [0.5, 20]")
         if not 0 < self.canny_low <= self.canny_high:

@@ -92,12 +92,23 @@ class Detector:
         self._remember(detection, time_s)
         return self._counted(detection)
 
+    def _likely_count(self) -> int | None:
+        """The count this frame's rings are assembled at (with its neighbours), when the config gives none:
+        the learned one, except on one frame in ``all_counts_every``, which tries every count. Only
+        those frames vote, so a count settled on a misreading far out (six of eleven LEDs, every other
+        one, before the ring is resolved) gives way to the dock's once it shows, instead of keeping
+        the search to itself."""
+        if self.config.led_count is not None or self._frames % self.config.all_counts_every == 0:
+            return None
+        return self.led_counts.count
+
     def _counted(self, detection: Detection) -> Detection:
-        """A whole ring of LEDs votes for the dock's count (when it is not given); one of another count
-        than the dock's is marked (``count_disputed``)."""
+        """A whole ring of LEDs votes for the dock's count (when it is not given and the frame tried
+        every count); one of another count than the dock's is marked (``count_disputed``)."""
         if self.config.led_count is not None or not detection.led_count or detection.visible_arc_deg < 360.0:
             return detection
-        self.led_counts.add(detection.led_count)
+        if self._likely_count() is None:
+            self.led_counts.add(detection.led_count)
         if not self.led_counts.disputes(detection.led_count):
             return detection
         return dataclasses.replace(detection, count_disputed=True)
@@ -162,7 +173,7 @@ class Detector:
             return []
         self._view = FrameView.of(copy)
         return self._large_enough(find_led_rings(image, copy, self.camera, self.config, self._view,
-                                                 likely_count=self.led_counts.count))
+                                                 likely_count=self._likely_count()))
 
     def _led_rings_in(self, image: np.ndarray, window: Window) -> list[LedRingCandidate]:
         """Rings of evenly spaced LEDs in a tracking window: the same evidence as in the whole
@@ -172,7 +183,7 @@ class Detector:
         box, _ = window
         copy = search_copy(image, self.config, self._lens_scale, box)
         return self._large_enough(find_led_rings(image, copy, self.camera, self.config, self._view, box[:2],
-                                                 self.led_counts.count))
+                                                 self._likely_count()))
 
     def _large_enough(self, rings: list[LedRingCandidate]) -> list[LedRingCandidate]:
         return [r for r in rings if r.shape.radius_px >= max(self.config.selection.min_radius_px, self._min_radius_px)]

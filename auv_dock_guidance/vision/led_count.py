@@ -35,9 +35,14 @@ class LedCountVote:
         self._votes[count] += 1
 
     @property
+    def rings(self) -> int:
+        """Whole rings that have voted."""
+        return sum(self._votes.values())
+
+    @property
     def count(self) -> int | None:
         """The dock's count as far as the votes tell, or None while too few rings have voted."""
-        total = sum(self._votes.values())
+        total = self.rings
         if total < self.config.min_rings:
             return None
         return max((n for n, votes in self._votes.items() if votes >= self.config.min_share * total), default=None)

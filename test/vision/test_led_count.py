@@ -42,3 +42,19 @@ def test_with_the_count_given_nothing_is_voted_or_disputed():
     detector = Detector(PAL, DetectorConfig(led_count=8))
     detection = detector.detect(render_dock(Dock(center_m=(0.3, 0.2, 2.0), normal=(0.3, -0.2, -1.0))))
     assert detection.led_count == 8 and not detection.count_disputed and detector.led_counts.count is None
+
+
+def test_a_count_settled_on_a_misreading_gives_way_to_the_docks():
+    """Far out, a ring of eleven can read as six (every other LED): the vote settles there before
+    the ring is resolved, and the frames assembled at that count read the dock wrongly too (this
+    ring of eight as six). The frames that try every count vote for the dock's own, and win."""
+    frame = render_dock(Dock(center_m=(0.3, 0.2, 2.0), normal=(0.3, -0.2, -1.0)))  # eight LEDs
+    detector = Detector(PAL)
+    for _ in range(10):
+        detector.led_counts.add(5)
+    for _ in range(2 * detector.config.all_counts_every):
+        detector.detect(frame)
+    assert detector.led_counts.count == 8
+    assert detector.led_counts.rings == 12  # only the frames that tried every count voted
+    seen = detector.detect(frame)
+    assert seen.led_count == 8 and len(seen.leds) == 8 and not seen.count_disputed
