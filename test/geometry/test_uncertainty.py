@@ -107,6 +107,24 @@ def test_a_detection_through_an_approximate_camera_is_less_certain():
     assert poses[1].matrix()[0, 0] > poses[0].matrix()[0, 0]
 
 
+def test_a_solid_blob_has_a_loose_range_and_leds_or_a_resolved_hole_do_not():
+    """A blob read by its outer outline alone (no hole, no LEDs) is the ring plus its halo, a fixed angle
+    wide: its range is known to that angle over the ring's image radius, not to the whole ring's fraction
+    of a per cent."""
+    camera = paper_camera().scaled(0.5)
+    image, _ = render(camera, SceneSpec(marker_center_m=(0.3, 0.2, 6.0)))
+    ring = Detector(camera).detect(image)
+    assert ring.is_ring
+    blob = dataclasses.replace(ring, is_ring=False)
+    leds = dataclasses.replace(blob, led_count=8)
+    cut_blob = dataclasses.replace(blob, visible_arc_deg=200.0)
+    observations = [observation_of(d, R, camera.focal_px, camera.width) for d in (ring, blob, leds, cut_blob)]
+    assert [o.solid for o in observations] == [False, True, False, False]
+    sigmas = [dock_pose(o).range_sigma_m for o in observations[:3]]
+    assert sigmas[1] >= ring.pose.range_m**2 * MeasurementNoise().solid_halo / R
+    assert sigmas[0] < sigmas[1] / 3 and sigmas[2] == pytest.approx(sigmas[0])
+
+
 def test_a_fit_without_its_own_error_is_taken_as_a_pixel():
     known = dock_pose(_observation(8.0, fit_sigma=1.0 / FOCAL_PX))
     unknown = dock_pose(_observation(8.0, fit_sigma=math.nan))
