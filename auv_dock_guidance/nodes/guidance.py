@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -81,7 +82,9 @@ PARAMS = [
     Param("outer.kp", 0.12, "outer loop: rad of turn per metre of offset", 0.0, 5.0),
     Param("outer.ki", 0.01, "outer loop integral gain", 0.0, 5.0),
     Param("inner.kp", 1.5, "inner loop: moment per rad of attitude error", 0.0, 50.0),
-    Param("inner.ki", 0.1, "inner loop integral gain", 0.0, 50.0),
+    Param("inner.ki", 0.1, "inner loop integral gain (yaw)", 0.0, 50.0),
+    Param("inner.pitch_ki", 0.6, "inner pitch loop integral gain: it trims the righting moment, which each pitch "
+          "goal changes", 0.0, 50.0),
     Param("inner.kd", 0.6, "inner loop derivative gain", 0.0, 50.0),
     Param("max_turn_deg", 25.0, "largest yaw turn the outer loop may ask for (deg)", 1.0, 90.0),
     Param("velocity_steering", True, "track the dock in the level frame and crab into the estimated current"),
@@ -106,7 +109,7 @@ def guidance_config(v: dict[str, Any], mixer: MixerConfig, camera_ahead_m: float
     outer = PidGains(kp=v["outer.kp"], ki=v["outer.ki"], output_limit=turn)
     inner = PidGains(kp=v["inner.kp"], ki=v["inner.ki"], kd=v["inner.kd"], output_limit=0.6)
     cascade = CascadeConfig(
-        outer_yaw=outer, outer_pitch=outer, inner_yaw=inner, inner_pitch=inner,
+        outer_yaw=outer, outer_pitch=outer, inner_yaw=inner, inner_pitch=replace(inner, ki=v["inner.pitch_ki"]),
         cruise_speed_mps=v["cruise_speed_mps"], terminal_speed_mps=v["terminal_speed_mps"],
         full_thrust_speed_mps=v["full_thrust_speed_mps"],
     )
