@@ -83,6 +83,7 @@ class ApproachConfig:
     lookahead_share: float = 0.4  # lookahead = share of the distance along the line, within the limits
     lookahead_min_m: float = 1.0
     lookahead_max_m: float = 5.0
+    pursuit_floor_m: float = 0.3  # nearer the entrance than the lookahead, aim at its centre; no closer than this
     line_margin_deg: float = 2.0  # of the entry limit kept in reserve (the crab plans for the rest): to correct with
     commit_m: float = 3.0  # closer than this along the axis the crossing is predicted and checked
     entry_tolerance_m: float = 0.06  # predicted miss distance that makes the vehicle back off
@@ -288,7 +289,10 @@ class ApproachPlanner:
         c = self.config
         line, line_side = _unit(g.line_yaw), _unit(g.line_yaw + math.pi / 2)
         on_line, off_line = -_dot(g.nose, line), _dot(g.nose, line_side)
-        course = g.line_yaw - math.atan2(off_line, self._lookahead(on_line))
+        # Within the lookahead of the entrance the aim point would lie beyond it, leaving part of an offset
+        # (a close fix's correction) open at the plane: aim at the centre itself (pure pursuit) instead.
+        aim = min(self._lookahead(on_line), max(on_line, c.pursuit_floor_m))
+        course = g.line_yaw - math.atan2(off_line, aim)
         held = c.entry_crab_deg - c.line_margin_deg  # the crab planned for; the rest of the limit corrects
         crab_limit = math.radians(held + (c.far_crab_deg - held) * _clamp(
             (g.along - c.crab_near_m) / (c.crab_far_m - c.crab_near_m), 0.0, 1.0))

@@ -260,6 +260,17 @@ def test_close_in_a_cross_current_beyond_the_limit_the_heading_stays_within_it_a
     assert plan.yaw_rad < 0
 
 
+def test_nearer_the_entrance_than_the_lookahead_the_course_aims_at_its_centre():
+    """An aim point beyond the entrance leaves part of a late offset (a close fix's correction) open at
+    the plane; within the lookahead the course goes for the centre itself."""
+    planner = ApproachPlanner()
+    c = planner.config
+    for along, aim in ((0.5, 0.5), (2.0, c.lookahead_min_m), (0.1, c.pursuit_floor_m)):
+        plan = planner.plan(Situation((-along - AHEAD, 0.03), (0.0, 0.0), 0.0, 0.7, 0.0, AHEAD, 0.7),
+                            backing_off=False, predict_entry=False)
+        assert plan.yaw_rad == pytest.approx(-math.atan2(0.03, aim), abs=1e-6), f"{along} m out"
+
+
 def test_downstream_of_the_turned_line_two_metres_out_the_heading_may_exceed_the_entry_limit_to_reach_it():
     """The entry limit clamped the heading from 2 m in, leaving 2 deg beyond the planned crab to get onto
     a line turned by a strong cross current: seed 42 (0.16 m/s across) was 11 cm downstream of it 2.5 m
