@@ -15,6 +15,8 @@ States:
   except that down to ``close_fix_range_m`` a ring the frame cuts top and bottom still fixes
   the track's position where it agrees with it: its side arcs give a good bearing, and the
   blind run after it (a current error of 2 cm/s drifts 2-4 cm over the last 1.15 m) is shorter.
+  Detections in TERMINAL correct the track's position only, not its current: their errors are
+  as large as the motion left, and taken as drift they steered the blind run.
   Lost while still farther than ``blind_range_m`` (where it should be in view) for
   ``terminal_lost_timeout_s``: ABORT.
   No detection at all for ``terminal_blind_timeout_s``: ABORT (the blind run should be
@@ -327,7 +329,7 @@ class Guidance:
         if c.follows_path and attitude is not None:
             self._own_motion(dt, attitude)
             if close_fix is not None:  # the position only, and only where it agrees with the track
-                self.tracker.update(close_fix, attitude, may_restart=False)
+                self.tracker.update(close_fix, attitude, may_restart=False, learn_drift=False)
             if target is not None and not self._observe(target, attitude):
                 target = None  # another light far off the track: not acted on
             # The entry is checked with each new detection, and once on crossing the commit distance
@@ -391,7 +393,10 @@ class Guidance:
         """Correct the track, the dock's depth and its axis with a detection. False for one the tracker
         rejects at a range far off its own: acting on it sent a vehicle 2.5 m out back (a lamp read 36 m
         off). Other rejected ones are acted on: where the track lags a gusty current they are the dock."""
-        if not self.tracker.update(target, attitude) and self.tracker.far_off(target, attitude):
+        # In the last metres a ring's errors (a range read 10-25 % off as LEDs leave the frame) are as large as
+        # the motion left, and taken as drift they steer the blind run: there the detections fix the position only.
+        taken = self.tracker.update(target, attitude, learn_drift=self.state is not State.TERMINAL)
+        if not taken and self.tracker.far_off(target, attitude):
             return False
         camera_below = float(level_from_body(attitude)[2, 0]) * self.config.tracker.camera_ahead_m
         seen_below = float(dock_from_camera(target, attitude)[2]) + camera_below

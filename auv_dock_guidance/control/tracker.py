@@ -118,9 +118,10 @@ class DockTracker:
         self._p = f @ self._p @ f.T + q
         self._rejected = [(z + motion, r + q[:2, :2]) for z, r in self._rejected]  # carried on as the track is
 
-    def update(self, target: Target, attitude: Attitude, may_restart: bool = True) -> bool:
+    def update(self, target: Target, attitude: Attitude, may_restart: bool = True, learn_drift: bool = True) -> bool:
         """Correct with a detection; False if it was rejected as an outlier. With ``may_restart`` False (a ring
-        the frame cuts close in: its bearing holds, its range may not) it neither starts nor restarts the track."""
+        the frame cuts close in: its bearing holds, its range may not) it neither starts nor restarts the track.
+        With ``learn_drift`` False it corrects the position alone, not the current or the speed model."""
         c = self.config
         dock = dock_from_camera(target, attitude)
         z = self._position_from(dock, attitude)
@@ -146,8 +147,11 @@ class DockTracker:
                 self._start(z, r, target.stamp_s)
             return False
         k = self._p @ h.T @ np.linalg.inv(s)
+        if not learn_drift:
+            k[2:] = 0.0
         self._x = self._x + k @ innovation
-        self._p = (np.eye(5) - k @ h) @ self._p
+        keep = np.eye(5) - k @ h
+        self._p = keep @ self._p @ keep.T + k @ r @ k.T  # Joseph form: right for any gain
         self._rejected = []
         self._confirmed_s = target.stamp_s
         return True

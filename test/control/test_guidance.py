@@ -164,3 +164,22 @@ def test_in_the_terminal_phase_a_ring_cut_close_in_fixes_the_track_sideways_and_
 
     assert sideways_after(GuidanceConfig()) > 0.01
     assert abs(sideways_after(GuidanceConfig(close_fix_range_m=1.15))) < 0.002
+
+
+def test_in_the_terminal_phase_detections_fix_the_position_and_leave_the_drift_estimate_alone():
+    """Close in, a ring's errors are as large as the motion left (a range read 10-25 % off as its LEDs
+    leave the frame); taken as drift they would steer the blind run. A sideways step in the detections
+    moves the track's position; it changes the current estimate only farther out, in TRACK."""
+    def step_sideways(range_m):
+        g = Guidance(GuidanceConfig())
+        run(g, 1.0, lambda t: target(t, range_m=range_m))
+        before = g.tracker.fix()
+        run(g, 0.3, lambda t: target(t, range_m=range_m, x=0.04), start=1.0)
+        after = g.tracker.fix()
+        moved = math.dist(after.position_m, before.position_m)
+        return g.state, moved, math.dist(after.current_mps, before.current_mps)
+
+    state, moved, drift = step_sideways(2.0)
+    assert state is State.TERMINAL and moved > 0.02 and drift < 1e-4
+    state, moved, drift = step_sideways(6.0)
+    assert state is State.TRACK and drift > 0.01
