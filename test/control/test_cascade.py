@@ -23,8 +23,8 @@ def _fly(cascade: CascadeController, auv: AuvDynamics, pitch_goal_rad: float, st
 
 def test_after_a_long_climb_the_pitch_follows_a_small_nose_down_goal_within_seconds():
     """The integrator holds a climb against the righting moment; when the goal turns to a gentle descent
-    (the last metres to the dock's depth) that trim must go within the last ten seconds. Trimmed slowly, it held the
-    nose 2-3 deg above a -1.5 deg goal for the whole final approach: 3-4 cm high at the entrance."""
+    (the last metres to the dock's depth) that trim must be gone within ten seconds. Trimmed slowly, it held
+    the nose 2-3 deg above a -1.5 deg goal for the whole final approach: 3-4 cm high at the entrance."""
     cascade = CascadeController()
     auv = AuvDynamics(VehiclePose(0.0, 0.0, -5.0))
     t = _fly(cascade, auv, math.radians(8.0), 0.0, 20.0)
