@@ -46,8 +46,9 @@ MAX_COUNT_UNKNOWN = 32  # beyond this many LEDs they merge into a strip; the out
 SEED_LIGHTS = 16  # the strongest lights that seed hypotheses (all of them can confirm one)
 MAX_SPACING_SIZES = 30.0  # LEDs further apart than this many of their radii: specks that happen to line up
 # (not asked of bumps on a lit region's outline: their size is the LED's part outside the rim, not the LED's;
-# nor of MIN_LEDS_UNKNOWN_COUNT or more LEDs at the even steps of a count the user gave: a sparse ring of
-# small LEDs close in, six 1 cm domes round a 0.35 m ring, is 70 of their radii apart)
+# nor of MIN_LEDS_UNKNOWN_COUNT or more LEDs at the even steps of a count the user gave, or the dock's rings
+# showed farther out: a sparse ring of small LEDs close in, six 1 cm domes round a 0.35 m ring, is 70 of
+# their radii apart)
 ALIKE = 2.5  # the LEDs of one ring are alike: size and brightness within this factor of their median
 GLOW_SATURATION_RATIO = 1.6  # a ring whose palest glow is this much paler than another ring's: what LEDs light
 REFITS = 12  # hypotheses refitted per LED count, those the most lights confirm
@@ -144,7 +145,8 @@ def _best_ring(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, in_vi
         if not len(group) or (best is not None and count < len(best.members)):
             continue
         fewest = len(best.members) if best is not None else 0
-        for ring in _hypotheses(points, blobs, free, group, count, in_view, led_count is not None, fewest):
+        for ring in _hypotheses(points, blobs, free, group, count, in_view, led_count is not None, fewest,
+                                count_settled=count == likely_count):
             if best is None or _better(ring, best) or (count < best.count and not _better(best, ring)):
                 best = ring
     return best
@@ -228,9 +230,11 @@ def _positions(center: np.ndarray, a: np.ndarray, b: np.ndarray, count: int) -> 
 
 
 def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, triples: np.ndarray, count: int,
-                in_view: InView | None, count_known: bool, fewest: int = 0) -> list[LedRing]:
+                in_view: InView | None, count_known: bool, fewest: int = 0,
+                count_settled: bool = False) -> list[LedRing]:
     """Rings of ``count`` LEDs grown from the triples and confirmed by the lights (none of
-    fewer than ``fewest`` LEDs: a ring that many LEDs strong is known already).
+    fewer than ``fewest`` LEDs: a ring that many LEDs strong is known already). ``count_settled``:
+    the count is the one the dock's rings have shown (`assemble_rings`' ``likely_count``).
 
     Each triple (slots -1, 0, 1, in either direction round the ring) must first lie on a
     circle at three even steps of the N: few LEDs are fitted as a ring seen nearly face on
@@ -319,7 +323,7 @@ def _hypotheses(points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, trip
         seen.add(members)
         starts.append((found[h, slots], slots))
     rings = []
-    for ring in _Refitter(points, blobs, free, count, in_view, count_known).refit(starts, fewest):
+    for ring in _Refitter(points, blobs, free, count, in_view, count_known, count_settled).refit(starts, fewest):
         if ring is None:
             continue
         coloured = ring.glow_saturation >= COLOURED_GLOW_SATURATION  # False when not told (NaN)
@@ -463,9 +467,10 @@ class _Refitter:
     """
 
     def __init__(self, points: np.ndarray, blobs: list[LedBlob], free: np.ndarray, count: int,
-                 in_view: InView | None, count_known: bool) -> None:
+                 in_view: InView | None, count_known: bool, count_settled: bool = False) -> None:
         self.points, self.blobs, self.free, self.count, self.in_view = points, blobs, free, count, in_view
         self.count_known = count_known
+        self.count_settled = count_settled
         self.peak = np.array([b.peak for b in blobs])
         self.radius = np.array([b.radius_px for b in blobs])
         self.on_outline = np.array([b.on_outline for b in blobs], bool)
@@ -525,7 +530,7 @@ class _Refitter:
         model, homography = fitted
         points = self.points[lights]
         spacing = float(np.mean(_distance(_next(model, 0), model)))
-        sparse_ring_told = self.count_known and len(lights) >= MIN_LEDS_UNKNOWN_COUNT
+        sparse_ring_told = (self.count_known or self.count_settled) and len(lights) >= MIN_LEDS_UNKNOWN_COUNT
         if (spacing > MAX_SPACING_SIZES * median(self.radius[lights]) and not sparse_ring_told
                 and not self.on_outline[lights].all()):
             return None

@@ -260,6 +260,30 @@ def test_six_small_leds_round_a_lit_funnel_are_a_ring_when_the_user_gives_their_
         assert math.hypot(detection.u - truth.center_px[0], detection.v - truth.center_px[1]) < 0.02 * truth.radius_px
 
 
+def test_a_sparse_ring_close_in_is_found_once_the_dock_has_shown_its_count():
+    """The open-water dock of closed-loop episode 325 (six small blue LEDs round a grey funnel), its
+    count not given. Close in the LEDs lie 40-70 of their radii apart, which the gate against specks
+    lining up refuses without a count, and the episode flew from 5 m to 1.7 m blind on four approaches,
+    drifted off in the current each time and aborted. Once the detector has learned the count from the
+    dock farther out, six LEDs at that count's even steps are the evidence, as with a count given."""
+    world = _open_water_world(325)
+    detector = Detector(LOOP_CAMERA, DetectorConfig(marker_radius_m=world.entrance_radius_m, tracking=True))
+    for frame in range(100):  # 10 s at 9 m: whole rings vote on one frame in ten
+        image, _ = render(LOOP_CAMERA, world.scene_for(_facing_the_dock(world, 9.0), seed=frame + 1))
+        detector.detect(image, 0.1 * frame)
+    assert detector.led_counts.count == 6
+    for range_m in (5.0, 4.0, 3.0):
+        found = []
+        for noise in range(1, 4):
+            image, truth = render(LOOP_CAMERA, world.scene_for(_facing_the_dock(world, range_m + world.camera_offset_m),
+                                                               seed=noise))
+            detection = detector.detect(image)
+            found.append(detection.found and detection.led_count == 6)
+            if found[-1]:
+                assert detection.pose.range_m == pytest.approx(truth.position_m[2], rel=0.05)
+        assert sum(found) >= 2, (range_m, found)  # one frame in ten tries every count, with the gate
+
+
 def test_a_distant_ring_whose_leds_bloom_into_one_glow_is_found_from_its_leds():
     """The open-water dock of closed-loop episode 22 (nine white LEDs round a lit hub) 11 m
     straight ahead, in six draws of the camera noise: the LEDs' halos merge into one glow
