@@ -32,4 +32,5 @@ class Detection:
     leds: tuple[tuple[float, float], ...] = ()  # centroids of the ring's LEDs (pixels), when assembled from them
     led_count: int = 0  # N of the ring they were assembled into (0: not from LEDs)
     partial: bool = False  # less than half the ring in view (a corner): a bearing more than a position
+    bloomed: bool = False  # LEDs merged into one glow: placed by its outline, so the range reads short, no tilt
     count_disputed: bool = False  # LEDs assembled with another count than the dock's (learned): no tilt to trust

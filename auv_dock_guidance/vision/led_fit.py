@@ -13,7 +13,7 @@ range, marked partial.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import cv2
@@ -25,6 +25,7 @@ from auv_dock_guidance.vision.config import DetectorConfig
 from auv_dock_guidance.vision.detection import Detection
 from auv_dock_guidance.vision.led_ring import LedRing, assemble_rings, ring_model
 from auv_dock_guidance.vision.leds import (
+    LIT_LEVEL,
     LedBlob,
     LitRegion,
     find_leds,
@@ -38,6 +39,7 @@ from auv_dock_guidance.vision.search import Box, picture_area
 from auv_dock_guidance.vision.selection import CandidateShape
 
 _LIT_FACE_RADII = 1.5  # ring radii out from the centre where a ring on a lit face still finds full scale
+_BLOOMED_SHARE = 0.5  # share of the gaps between LEDs at full scale from which the LEDs are one glow
 
 
 @dataclass(frozen=True)
@@ -48,6 +50,7 @@ class LedRingCandidate:
     leds_px: np.ndarray  # (M, 2) the members' centroids, distorted image pixels
     leds_xy: np.ndarray  # (M, 2) the same on the normalized plane
     shape: CandidateShape  # for the choice among candidates (largest, lowest on ties)
+    bloomed: bool = False  # the LEDs merged into one glow at full scale (`_bloomed`)
 
 
 @dataclass(frozen=True)
@@ -83,7 +86,25 @@ def find_led_rings(image: np.ndarray, copy: tuple[np.ndarray, float], camera: Ca
         rings = round_the_lit(_rings_of(
             image, find_leds(gray, scale, config.search_background_px, origin=origin, lit=lit), camera, config, view,
             likely_count))
-    return rings
+    return rings if lit is None else [replace(r, bloomed=_bloomed(r, image, camera)) for r in rings]
+
+
+def _bloomed(candidate: LedRingCandidate, image: np.ndarray, camera: CameraModel | None) -> bool:
+    """Whether the gaps between the ring's LEDs are at full scale, as its LEDs are: the LEDs then
+    make one glow, and what the search took for them are bulges of its outline, a glow's width
+    outside the LEDs (open-water docks: ranges 10-20 % short, where rings whose gaps are resolved
+    read within 2-3 %), at slots and a tilt that follow the bulges, not the LEDs. Looked at on the
+    full-resolution frame, half way between each pair of neighbouring slots in view."""
+    ring = candidate.ring
+    half = 2.0 * np.pi * (np.arange(ring.count) + 0.5) / ring.count
+    gaps = (np.array(ring.center) + np.outer(np.cos(half), ring.axis_a) + np.outer(np.sin(half), ring.axis_b))
+    px = np.round(_plane_to_pixels(gaps, camera)).astype(int)
+    h, w = image.shape[:2]
+    seen = (px[:, 0] >= 0) & (px[:, 0] < w) & (px[:, 1] >= 0) & (px[:, 1] < h)
+    if not seen.any():
+        return False
+    level = mean_channel(image[px[seen, 1], px[seen, 0]][None])[0]
+    return bool(np.count_nonzero(level >= LIT_LEVEL) >= _BLOOMED_SHARE * np.count_nonzero(seen))
 
 
 def _on_lit_face(candidate: LedRingCandidate, lit: LitRegion, scale: float, origin: tuple[int, int],
@@ -170,7 +191,7 @@ def led_detection(candidate: LedRingCandidate, candidates: int, camera: CameraMo
     common: dict[str, Any] = dict(
         found=True, candidates=candidates, is_ring=True, mec_u=float(mu), mec_v=float(mv),
         mec_radius_px=float(mr), ellipse=ellipse, leds=tuple((float(u), float(v)) for u, v in candidate.leds_px),
-        led_count=ring.count, partial=2 * ring.expected < ring.count,
+        led_count=ring.count, partial=2 * ring.expected < ring.count, bloomed=candidate.bloomed,
         visible_arc_deg=360.0 * min(1.0, ring.expected / ring.count),
         range_approximate=camera is not None and camera.approximate,
         fit_sigma=ring.residual * 2.0 * math.sin(math.pi / ring.count) * ellipse.semi_major

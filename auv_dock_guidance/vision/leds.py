@@ -41,7 +41,7 @@ from auv_dock_guidance.vision.levels import median, median_and_mad, pixel_median
 _SCALES = np.array([1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0])  # box half widths tried, search-copy pixels
 _RESPONSE_SIGMAS = 5.0  # a blob's centre-surround contrast must stand this many noise deviations clear
 _MAX_CURVATURE_RATIO = 10.0  # curvature ratio above which a peak is a ridge (Lowe's edge test)
-_LIT_LEVEL = 235.0  # mean-channel level of a region at full scale (white, saturated)
+LIT_LEVEL = 235.0  # mean-channel level of a region at full scale (white, saturated)
 _LIT_MIN_RADIUS = 6.0  # copy pixels: a lit region smaller than this is an LED, not a funnel
 _RIM_OPENING_SHARE = 0.35  # round opening / radius of the lit region: fits between vanes, not into an LED
 _SURROUND_RADII = 2.5  # blob radii out to the circle that must be mostly darker
@@ -144,7 +144,7 @@ class LitRegion:
 def lit_region(small: np.ndarray) -> LitRegion | None:
     """The copy's pixels at full scale, if a part of them is wider than an LED (``small``: the copy or its
     `mean_channel`)."""
-    bright = (mean_channel(small) >= _LIT_LEVEL).astype(np.uint8)
+    bright = (mean_channel(small) >= LIT_LEVEL).astype(np.uint8)
     _, stats, _ = components(bright)
     if not len(stats):
         return None

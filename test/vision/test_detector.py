@@ -6,6 +6,7 @@ import pytest
 
 from auv_dock_guidance.errors import ConfigError, ImageInputError
 from auv_dock_guidance.geometry.camera import paper_camera
+from auv_dock_guidance.geometry.uncertainty import dock_pose, observation_of
 from auv_dock_guidance.sim.closed_loop import EpisodeConfig, episode_world
 from auv_dock_guidance.sim.evaluate import judge, population, run_frames, summarize
 from auv_dock_guidance.sim.scenarios import ScenarioMix
@@ -352,3 +353,23 @@ def test_leds_blooming_beside_a_lit_funnel_begin_the_ring(range_m):
         assert detection.found and detection.led_count == 9, (noise, detection.reason)
         assert math.hypot(detection.u - truth.center_px[0], detection.v - truth.center_px[1]) < 0.1 * truth.radius_px
         assert detection.pose.range_m == pytest.approx(truth.position_m[2], rel=0.05)
+        assert not detection.bloomed  # the glow between its LEDs is below full scale
+
+
+def test_leds_bloomed_into_one_white_glow_are_told_apart_and_their_range_and_tilt_held_loose():
+    """The open-water dock of closed-loop episode 377 (twelve white LEDs as bright as the sensor
+    takes, round a lit funnel) 5.5 m straight ahead: the LEDs and the gaps between them are one
+    white glow, and the lights the search finds are bulges of its outline, outside the LEDs. The
+    ring they make reads 15-30 % short and tilted 20-40 deg; its pose said 1 %, and the episode's
+    axis estimate settled 17 deg off and entered 25 deg off. Such a ring is marked ``bloomed``:
+    dock/pose gives it a blob's range deviation (9 % at 5.5 m) and no axis."""
+    world = _open_water_world(377)
+    pose = _facing_the_dock(world, 5.5 + world.camera_offset_m)
+    for noise in range(1, 4):
+        detection, truth = _detect_in_open_water(world, pose, noise)
+        assert detection.found and detection.led_count and detection.bloomed, (noise, detection.reason)
+        observation = observation_of(detection, world.entrance_radius_m, LOOP_CAMERA.focal_px, LOOP_CAMERA.width)
+        assert observation.solid and observation.tilt_disputed
+        published = dock_pose(observation)
+        assert not published.axis_observed
+        assert published.range_sigma_m > 0.05 * truth.position_m[2], noise  # a resolved ring's: about 1 %
