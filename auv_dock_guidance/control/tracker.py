@@ -41,9 +41,14 @@ def level_from_body(attitude: Attitude) -> np.ndarray:
     return rz @ ry @ rx
 
 
+def level_from_optical(attitude: Attitude) -> np.ndarray:
+    """Rotation of the camera's optical axes into the level navigation frame."""
+    return level_from_body(attitude) @ _BODY_FROM_OPTICAL
+
+
 def optical_to_level(vector_optical: tuple[float, float, float] | np.ndarray, attitude: Attitude) -> np.ndarray:
     """A direction or offset seen by the camera, in the level navigation frame."""
-    return level_from_body(attitude) @ (_BODY_FROM_OPTICAL @ np.asarray(vector_optical, dtype=float))
+    return level_from_optical(attitude) @ np.asarray(vector_optical, dtype=float)
 
 
 def dock_from_camera(target: Target, attitude: Attitude) -> np.ndarray:
@@ -127,7 +132,7 @@ class DockTracker:
         z = self._position_from(dock, attitude)
         r = self._measurement_noise(dock)
         if target.position_covariance is not None:
-            turn = level_from_body(attitude) @ _BODY_FROM_OPTICAL
+            turn = level_from_optical(attitude)
             r = r + (turn @ np.array(target.position_covariance).reshape(3, 3) @ turn.T)[:2, :2]
         if self._x is None or not c.estimate_current:
             if may_restart:
