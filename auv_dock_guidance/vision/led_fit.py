@@ -92,9 +92,9 @@ def find_led_rings(image: np.ndarray, copy: tuple[np.ndarray, float], camera: Ca
 def _bloomed(candidate: LedRingCandidate, image: np.ndarray, camera: CameraModel | None) -> bool:
     """Whether the gaps between the ring's LEDs are at full scale, as its LEDs are: the LEDs then
     make one glow, and what the search took for them are bulges of its outline, a glow's width
-    outside the LEDs (open-water docks: ranges 10-20 % short, where rings whose gaps are resolved
-    read within 2-3 %), at slots and a tilt that follow the bulges, not the LEDs. Looked at on the
-    full-resolution frame, half way between each pair of neighbouring slots in view."""
+    outside the LEDs (renders of the open-water docks: ranges 14 % off at p68, where rings whose gaps
+    are resolved read within 2.4 %), at slots and a tilt that follow the bulges, not the LEDs. Looked
+    at on the full-resolution frame, half way between each pair of neighbouring slots in view."""
     ring = candidate.ring
     half = 2.0 * np.pi * (np.arange(ring.count) + 0.5) / ring.count
     gaps = (np.array(ring.center) + np.outer(np.cos(half), ring.axis_a) + np.outer(np.sin(half), ring.axis_b))
