@@ -95,10 +95,7 @@ def _bloomed(candidate: LedRingCandidate, image: np.ndarray, camera: CameraModel
     outside the LEDs (renders of the open-water docks: ranges 14 % off at p68, where rings whose gaps
     are resolved read within 2.4 %), at slots and a tilt that follow the bulges, not the LEDs. Looked
     at on the full-resolution frame, half way between each pair of neighbouring slots in view."""
-    ring = candidate.ring
-    half = 2.0 * np.pi * (np.arange(ring.count) + 0.5) / ring.count
-    gaps = (np.array(ring.center) + np.outer(np.cos(half), ring.axis_a) + np.outer(np.sin(half), ring.axis_b))
-    px = np.round(_plane_to_pixels(gaps, camera)).astype(int)
+    px = np.round(_plane_to_pixels(candidate.ring.gap_positions(), camera)).astype(int)
     h, w = image.shape[:2]
     seen = (px[:, 0] >= 0) & (px[:, 0] < w) & (px[:, 1] >= 0) & (px[:, 1] < h)
     if not seen.any():

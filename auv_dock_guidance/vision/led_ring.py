@@ -83,6 +83,10 @@ class LedRing:
     def slot_positions(self) -> np.ndarray:
         return _positions(np.array(self.center), np.array(self.axis_a), np.array(self.axis_b), self.count)
 
+    def gap_positions(self) -> np.ndarray:
+        """Half way round the ring between each pair of neighbouring slots."""
+        return _positions(np.array(self.center), np.array(self.axis_a), np.array(self.axis_b), self.count, 0.5)
+
     def semi_axes(self) -> tuple[float, float]:
         """Semi-major and semi-minor axes of the ellipse spanned by a and b."""
         m = np.column_stack([self.axis_a, self.axis_b])
@@ -222,9 +226,10 @@ def _counts_to_try(points: np.ndarray, triples: np.ndarray) -> tuple[np.ndarray,
     return low, high
 
 
-def _positions(center: np.ndarray, a: np.ndarray, b: np.ndarray, count: int) -> np.ndarray:
-    """Slot positions (..., count, 2) of affine rings with centres c and half-diameters a, b (..., 2)."""
-    angle = 2.0 * np.pi * np.arange(count) / count
+def _positions(center: np.ndarray, a: np.ndarray, b: np.ndarray, count: int, phase: float = 0.0) -> np.ndarray:
+    """Slot positions (..., count, 2) of affine rings with centres c and half-diameters a, b (..., 2);
+    ``phase``: a share of a step round the ring past each slot."""
+    angle = 2.0 * np.pi * (np.arange(count) + phase) / count
     return (center[..., None, :] + a[..., None, :] * np.cos(angle)[:, None]
             + b[..., None, :] * np.sin(angle)[:, None])
 
